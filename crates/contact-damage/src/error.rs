@@ -1,0 +1,70 @@
+//! Errors of the solver crate. Every error names what went wrong: a parameter, a mesh
+//! entity, or a solver with its iteration history.
+
+use std::fmt;
+
+/// Residual history of an iterative solver, printed compactly in error messages.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct History(pub Vec<f64>);
+
+impl fmt::Display for History {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "[")?;
+        for (i, r) in self.0.iter().enumerate() {
+            if i > 0 {
+                write!(f, ", ")?;
+            }
+            write!(f, "{r:.3e}")?;
+        }
+        write!(f, "]")
+    }
+}
+
+/// The error type of the solver crate.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A model or solver parameter violates an assumption of the theory.
+    #[error("invalid parameter `{name}` = {value}: {reason}")]
+    InvalidParameter {
+        name: String,
+        value: f64,
+        reason: String,
+    },
+    /// The mesh is not admissible (names the offending cell, facet or vertex).
+    #[error("invalid mesh: {0}")]
+    InvalidMesh(String),
+    /// Invalid input other than a scalar parameter or a mesh (sizes, options).
+    #[error("invalid input: {0}")]
+    InvalidInput(String),
+    /// An iterative solver stopped before reaching its tolerance.
+    #[error(
+        "{solver} did not converge in {iterations} iterations: residual {residual:.3e} > tolerance {tolerance:.1e}; residual history {history}"
+    )]
+    NoConvergence {
+        solver: &'static str,
+        iterations: usize,
+        residual: f64,
+        tolerance: f64,
+        history: History,
+    },
+    /// A factorization or solve failed (e.g. the matrix is not positive definite).
+    #[error("linear algebra failure in {context}: {message}")]
+    LinearAlgebra { context: String, message: String },
+    /// A NaN or infinity appeared in data or in a computed field.
+    #[error("non-finite value: {0}")]
+    NonFinite(String),
+}
+
+/// Result alias of the solver crate.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// Shorthand for [`Error::InvalidParameter`].
+    pub fn parameter(name: impl Into<String>, value: f64, reason: impl Into<String>) -> Self {
+        Error::InvalidParameter {
+            name: name.into(),
+            value,
+            reason: reason.into(),
+        }
+    }
+}
