@@ -1,0 +1,1474 @@
+//! Closed-form expressions of the case files (manufactured solutions, coefficient laws),
+//! evaluated generically on dual numbers so that source terms can be derived by automatic
+//! differentiation (`num-dual`, up to third order via nested duals).
+//!
+//! # Grammar
+//! ```text
+//! expression := term (("+" | "-") term)*
+//! term       := unary (("*" | "/") unary)*
+//! unary      := ("-" | "+") unary | power
+//! power      := primary ("^" unary)?            right-associative: 2^3^2 = 2^(3^2)
+//! primary    := number | name | name "(" arguments ")" | "(" expression ")"
+//! number     := 1 | 2.5 | .5 | 1e-3 | 2.5E+2
+//! ```
+//! `^` binds tighter than unary minus (`-x^2 = -(x^2)`) and its exponent may carry a sign
+//! (`2^-1 = 0.5`). Names are the evaluation variables (e.g. `x, y, z, t`), then the constants
+//! (`pi`, `e` and the user constants). Functions: `sqrt, exp, ln` (alias `log`)`, sin, cos, tan,
+//! tanh, abs` with one argument, `min, max, pow` with two. There is no implicit multiplication.
+//!
+//! # Evaluation on dual numbers
+//! - Exponents that are constant (after folding, e.g. `(y-a)^4`, `x^(1/2)`) are specialized:
+//!   an integer exponent (|n| ≤ 1000) uses `powi`, so negative bases are fine and all
+//!   derivatives are exact; a non-integer constant exponent uses `powf` (needs a positive base;
+//!   at a zero base the dual parts of exponents below 3 are NaN); a variable exponent is
+//!   evaluated as `exp(b·ln a)` (needs a positive base), identically for `f64` and duals.
+//! - `abs`, `min` and `max` pick a branch by the real part (`abs` takes `+a` at `a = 0`,
+//!   `min`/`max` the first argument on ties; a NaN argument is returned as is). Derivatives are
+//!   those of the selected branch: exact wherever the join is smooth enough for the order
+//!   needed, e.g. `max(0, y-a)^4` is C³, so derivatives up to third order are exact everywhere.
+//! - Variable-free subexpressions are folded to constants at parse time; a constant that is
+//!   not finite (`1/0`, `ln(0)`, `1e999`) is a parse error. Values at evaluation points are not
+//!   checked here (the signature returns a bare number): callers check `is_finite` on results.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use num_dual::DualNum;
+
+/// Largest |n| for which `a^n` with a constant integer `n` is evaluated by `powi`
+/// (num-dual computes n(n−1)(n−2) in `i32` for third derivatives).
+const MAX_INTEGER_EXPONENT: f64 = 1000.0;
+
+/// Largest depth of the syntax tree and of parser recursion (parentheses, unary signs):
+/// bounds the stack used by the recursive parser and evaluator.
+const MAX_DEPTH: usize = 200;
+
+/// Parse error: 1-based column (in characters) and what was expected or found.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("column {column}: {message}")]
+pub struct ExprError {
+    /// 1-based column, counted in characters, of the offending token.
+    pub column: usize,
+    /// What was expected or found, e.g. "unknown variable `w` (known: x, y, z, t; ...)".
+    pub message: String,
+}
+
+/// A parsed expression: syntax tree with variables resolved to slots of the value slice
+/// passed to [`Expr::eval`].
+#[derive(Debug, Clone)]
+pub struct Expr {
+    source: String,
+    variables: Vec<String>,
+    root: Node,
+}
+
+/// Functions of one argument, evaluated elementwise on dual numbers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum UnaryFunction {
+    Sqrt,
+    Exp,
+    Ln,
+    Sin,
+    Cos,
+    Tan,
+    Tanh,
+    Abs,
+}
+
+/// Syntax tree after name resolution, constant folding and exponent specialization.
+#[derive(Debug, Clone, PartialEq)]
+enum Node {
+    Constant(f64),
+    /// Index into the value slice of [`Expr::eval`].
+    Variable(usize),
+    Negate(Box<Node>),
+    Add(Box<Node>, Box<Node>),
+    Subtract(Box<Node>, Box<Node>),
+    Multiply(Box<Node>, Box<Node>),
+    Divide(Box<Node>, Box<Node>),
+    /// `a^n`, constant integer `n`: `powi`.
+    PowerInteger(Box<Node>, i32),
+    /// `a^p`, constant non-integer `p`: `powf`.
+    PowerReal(Box<Node>, f64),
+    /// `a^b`, variable `b`: `exp(b ln a)`.
+    PowerVariable(Box<Node>, Box<Node>),
+    Apply(UnaryFunction, Box<Node>),
+    Min(Box<Node>, Box<Node>),
+    Max(Box<Node>, Box<Node>),
+}
+
+impl Expr {
+    /// Parse `source`.
+    ///
+    /// `variables` are the names bound at evaluation, in the order of the value slice of
+    /// [`Expr::eval`] (e.g. `["x", "y", "z", "t"]` or `["beta", "tr_eps", "eps_eps"]`);
+    /// `constants` are named values (`pi` and `e` are always available; the case file's
+    /// constants are added here). A name that is both a variable and a constant, or a user
+    /// constant `pi`/`e` with another value, is an error where it is used.
+    pub fn parse(
+        source: &str,
+        variables: &[&str],
+        constants: &BTreeMap<String, f64>,
+    ) -> Result<Expr, ExprError> {
+        let tokens = tokenize(source)?;
+        let mut parser = Parser {
+            tokens,
+            position: 0,
+            source: source.chars().collect(),
+            variables,
+            constants,
+            nesting: 0,
+        };
+        let root = parser.parse_top()?;
+        Ok(Expr {
+            source: source.to_string(),
+            variables: variables.iter().map(|name| name.to_string()).collect(),
+            root: root.node,
+        })
+    }
+
+    /// Evaluate at `values` (one per variable, in the order given to [`Expr::parse`]) on any
+    /// dual number type with `f64` real parts, or on `f64` itself.
+    ///
+    /// # Panics
+    /// If `values.len()` differs from the number of variables given to [`Expr::parse`]
+    /// (a programming error: the variable list is fixed by the caller's code).
+    pub fn eval<T: DualNum<Primitive = f64> + Copy>(&self, values: &[T]) -> T {
+        assert_eq!(
+            values.len(),
+            self.variables.len(),
+            "Expr::eval of `{}`: {} values for the {} variables {:?}",
+            self.source,
+            values.len(),
+            self.variables.len(),
+            self.variables
+        );
+        evaluate(&self.root, values)
+    }
+
+    /// Evaluate on plain floating-point numbers (same panics as [`Expr::eval`]).
+    pub fn eval_f64(&self, values: &[f64]) -> f64 {
+        self.eval(values)
+    }
+
+    /// Names of the variables that actually occur, in the order given to [`Expr::parse`].
+    /// Variables that occur only inside folded constants cannot exist (a variable is never
+    /// constant), so this is exactly the dependence of the expression.
+    pub fn used_variables(&self) -> Vec<String> {
+        let mut used = vec![false; self.variables.len()];
+        mark_variables(&self.root, &mut used);
+        self.variables
+            .iter()
+            .zip(used)
+            .filter(|(_, is_used)| *is_used)
+            .map(|(name, _)| name.clone())
+            .collect()
+    }
+
+    /// All variable names, in the order of the value slice of [`Expr::eval`].
+    pub fn variables(&self) -> &[String] {
+        &self.variables
+    }
+
+    /// The source text the expression was parsed from.
+    pub fn source(&self) -> &str {
+        &self.source
+    }
+}
+
+impl fmt::Display for Expr {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(&self.source)
+    }
+}
+
+/// Recursive evaluation of the tree (depth bounded by [`MAX_DEPTH`]).
+fn evaluate<T: DualNum<Primitive = f64> + Copy>(node: &Node, values: &[T]) -> T {
+    match node {
+        Node::Constant(value) => T::from(*value),
+        Node::Variable(slot) => values[*slot],
+        Node::Negate(operand) => -evaluate(operand, values),
+        Node::Add(left, right) => evaluate(left, values) + evaluate(right, values),
+        Node::Subtract(left, right) => evaluate(left, values) - evaluate(right, values),
+        Node::Multiply(left, right) => evaluate(left, values) * evaluate(right, values),
+        Node::Divide(left, right) => evaluate(left, values) / evaluate(right, values),
+        Node::PowerInteger(base, exponent) => evaluate(base, values).powi(*exponent),
+        Node::PowerReal(base, exponent) => evaluate(base, values).powf(*exponent),
+        Node::PowerVariable(base, exponent) => {
+            (evaluate(base, values).ln() * evaluate(exponent, values)).exp()
+        }
+        Node::Apply(function, argument) => {
+            let argument = evaluate(argument, values);
+            match function {
+                UnaryFunction::Sqrt => argument.sqrt(),
+                UnaryFunction::Exp => argument.exp(),
+                UnaryFunction::Ln => argument.ln(),
+                UnaryFunction::Sin => argument.sin(),
+                UnaryFunction::Cos => argument.cos(),
+                UnaryFunction::Tan => argument.tan(),
+                UnaryFunction::Tanh => argument.tanh(),
+                UnaryFunction::Abs => {
+                    if argument.re() < 0.0 {
+                        -argument
+                    } else {
+                        argument
+                    }
+                }
+            }
+        }
+        Node::Min(left, right) => {
+            select_by_real_part(evaluate(left, values), evaluate(right, values), |a, b| {
+                a <= b
+            })
+        }
+        Node::Max(left, right) => {
+            select_by_real_part(evaluate(left, values), evaluate(right, values), |a, b| {
+                a >= b
+            })
+        }
+    }
+}
+
+/// `first` if `keep_first(re first, re second)`, else `second`; a NaN argument wins, so that
+/// `min`/`max` never hide a NaN.
+fn select_by_real_part<T: DualNum<Primitive = f64> + Copy>(
+    first: T,
+    second: T,
+    keep_first: impl Fn(f64, f64) -> bool,
+) -> T {
+    let (a, b) = (first.re(), second.re());
+    if a.is_nan() || (!b.is_nan() && keep_first(a, b)) {
+        first
+    } else {
+        second
+    }
+}
+
+fn mark_variables(node: &Node, used: &mut [bool]) {
+    match node {
+        Node::Constant(_) => {}
+        Node::Variable(slot) => used[*slot] = true,
+        Node::Negate(operand)
+        | Node::PowerInteger(operand, _)
+        | Node::PowerReal(operand, _)
+        | Node::Apply(_, operand) => mark_variables(operand, used),
+        Node::Add(left, right)
+        | Node::Subtract(left, right)
+        | Node::Multiply(left, right)
+        | Node::Divide(left, right)
+        | Node::PowerVariable(left, right)
+        | Node::Min(left, right)
+        | Node::Max(left, right) => {
+            mark_variables(left, used);
+            mark_variables(right, used);
+        }
+    }
+}
+
+/// True if every direct child is a constant (children are folded first, so the whole
+/// subtree is then variable-free). Leaves return false: they need no folding.
+fn children_are_constant(node: &Node) -> bool {
+    let is_constant = |child: &Node| matches!(child, Node::Constant(_));
+    match node {
+        Node::Constant(_) | Node::Variable(_) => false,
+        Node::Negate(operand)
+        | Node::PowerInteger(operand, _)
+        | Node::PowerReal(operand, _)
+        | Node::Apply(_, operand) => is_constant(operand),
+        Node::Add(left, right)
+        | Node::Subtract(left, right)
+        | Node::Multiply(left, right)
+        | Node::Divide(left, right)
+        | Node::PowerVariable(left, right)
+        | Node::Min(left, right)
+        | Node::Max(left, right) => is_constant(left) && is_constant(right),
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// Tokens
+
+#[derive(Debug, Clone, PartialEq)]
+enum TokenKind {
+    Number(f64),
+    Name(String),
+    Plus,
+    Minus,
+    Star,
+    Slash,
+    Caret,
+    OpenParen,
+    CloseParen,
+    Comma,
+    End,
+}
+
+#[derive(Debug, Clone)]
+struct Token {
+    kind: TokenKind,
+    /// 0-based character index of the first character.
+    start: usize,
+    /// 0-based character index one past the last character.
+    end: usize,
+}
+
+impl Token {
+    fn column(&self) -> usize {
+        self.start + 1
+    }
+}
+
+fn tokenize(source: &str) -> Result<Vec<Token>, ExprError> {
+    let chars: Vec<char> = source.chars().collect();
+    let is_digit = |index: usize| chars.get(index).is_some_and(|c| c.is_ascii_digit());
+    let mut tokens = Vec::new();
+    let mut index = 0;
+    while index < chars.len() {
+        let character = chars[index];
+        let start = index;
+        if character.is_whitespace() {
+            index += 1;
+            continue;
+        }
+        let kind = if character.is_ascii_digit() || (character == '.' && is_digit(index + 1)) {
+            while is_digit(index) {
+                index += 1;
+            }
+            if chars.get(index) == Some(&'.') {
+                index += 1;
+                while is_digit(index) {
+                    index += 1;
+                }
+            }
+            // An exponent only if digits follow: `2e` is the number 2 followed by the name e.
+            if matches!(chars.get(index), Some('e' | 'E')) {
+                let signed = matches!(chars.get(index + 1), Some('+' | '-'));
+                let first_digit = index + 1 + usize::from(signed);
+                if is_digit(first_digit) {
+                    index = first_digit;
+                    while is_digit(index) {
+                        index += 1;
+                    }
+                }
+            }
+            let text: String = chars[start..index].iter().collect();
+            let value: f64 = text.parse().map_err(|_| ExprError {
+                column: start + 1,
+                message: format!("malformed number `{text}`"),
+            })?;
+            if !value.is_finite() {
+                return Err(ExprError {
+                    column: start + 1,
+                    message: format!("number `{text}` is out of the range of f64"),
+                });
+            }
+            TokenKind::Number(value)
+        } else if character.is_ascii_alphabetic() || character == '_' {
+            while chars
+                .get(index)
+                .is_some_and(|c| c.is_ascii_alphanumeric() || *c == '_')
+            {
+                index += 1;
+            }
+            TokenKind::Name(chars[start..index].iter().collect())
+        } else {
+            index += 1;
+            match character {
+                '+' => TokenKind::Plus,
+                '-' => TokenKind::Minus,
+                '*' => TokenKind::Star,
+                '/' => TokenKind::Slash,
+                '^' => TokenKind::Caret,
+                '(' => TokenKind::OpenParen,
+                ')' => TokenKind::CloseParen,
+                ',' => TokenKind::Comma,
+                other => {
+                    let hint = match other {
+                        '\u{2212}' | '\u{2013}' => " (use the ASCII minus `-`)",
+                        '\u{00b7}' | '\u{00d7}' => " (use `*` for multiplication)",
+                        '[' | ']' | '{' | '}' => " (use parentheses `(` `)`)",
+                        _ => "",
+                    };
+                    return Err(ExprError {
+                        column: start + 1,
+                        message: format!("unexpected character `{other}`{hint}"),
+                    });
+                }
+            }
+        };
+        tokens.push(Token {
+            kind,
+            start,
+            end: index,
+        });
+    }
+    tokens.push(Token {
+        kind: TokenKind::End,
+        start: chars.len(),
+        end: chars.len(),
+    });
+    Ok(tokens)
+}
+
+// ---------------------------------------------------------------------------------------------
+// Parser
+
+/// Functions known to the parser (with their argument counts).
+#[derive(Debug, Clone, Copy)]
+enum Function {
+    Unary(UnaryFunction),
+    Min,
+    Max,
+    Pow,
+}
+
+const FUNCTION_NAMES: &str = "sqrt, exp, ln, log, sin, cos, tan, tanh, abs, min, max, pow";
+
+fn lookup_function(name: &str) -> Option<Function> {
+    Some(match name {
+        "sqrt" => Function::Unary(UnaryFunction::Sqrt),
+        "exp" => Function::Unary(UnaryFunction::Exp),
+        "ln" | "log" => Function::Unary(UnaryFunction::Ln),
+        "sin" => Function::Unary(UnaryFunction::Sin),
+        "cos" => Function::Unary(UnaryFunction::Cos),
+        "tan" => Function::Unary(UnaryFunction::Tan),
+        "tanh" => Function::Unary(UnaryFunction::Tanh),
+        "abs" => Function::Unary(UnaryFunction::Abs),
+        "min" => Function::Min,
+        "max" => Function::Max,
+        "pow" => Function::Pow,
+        _ => return None,
+    })
+}
+
+/// Built-in constants, always available.
+const BUILTIN_CONSTANTS: [(&str, f64); 2] =
+    [("pi", std::f64::consts::PI), ("e", std::f64::consts::E)];
+
+/// A parsed subexpression with its source span (0-based character indices) and tree depth.
+struct Parsed {
+    node: Node,
+    start: usize,
+    end: usize,
+    depth: usize,
+}
+
+struct Parser<'a> {
+    tokens: Vec<Token>,
+    position: usize,
+    source: Vec<char>,
+    variables: &'a [&'a str],
+    constants: &'a BTreeMap<String, f64>,
+    /// Current recursion depth through parentheses and unary signs.
+    nesting: usize,
+}
+
+impl Parser<'_> {
+    fn peek(&self) -> &Token {
+        &self.tokens[self.position]
+    }
+
+    fn advance(&mut self) -> Token {
+        let token = self.tokens[self.position].clone();
+        if token.kind != TokenKind::End {
+            self.position += 1;
+        }
+        token
+    }
+
+    /// How a token is named in messages: "end of input", "number `2.5`", "`x`", "`)`".
+    fn describe(&self, token: &Token) -> String {
+        let text: String = self.source[token.start..token.end].iter().collect();
+        match token.kind {
+            TokenKind::End => "end of input".to_string(),
+            TokenKind::Number(_) => format!("number `{text}`"),
+            _ => format!("`{text}`"),
+        }
+    }
+
+    fn error(column: usize, message: impl Into<String>) -> ExprError {
+        ExprError {
+            column,
+            message: message.into(),
+        }
+    }
+
+    /// Enter one level of parser recursion (a parenthesis or a unary sign at `column`).
+    fn enter(&mut self, column: usize) -> Result<(), ExprError> {
+        self.nesting += 1;
+        if self.nesting > MAX_DEPTH {
+            return Err(Self::error(
+                column,
+                format!("expression nested too deeply (more than {MAX_DEPTH} levels)"),
+            ));
+        }
+        Ok(())
+    }
+
+    fn leave(&mut self) {
+        self.nesting -= 1;
+    }
+
+    fn parse_top(&mut self) -> Result<Parsed, ExprError> {
+        if self.peek().kind == TokenKind::End {
+            return Err(Self::error(1, "empty expression"));
+        }
+        let parsed = self.parse_expression()?;
+        let token = self.peek().clone();
+        match token.kind {
+            TokenKind::End => Ok(parsed),
+            TokenKind::CloseParen => Err(Self::error(
+                token.column(),
+                "unbalanced parentheses: `)` without a matching `(`",
+            )),
+            TokenKind::Number(_) | TokenKind::Name(_) | TokenKind::OpenParen => Err(Self::error(
+                token.column(),
+                format!(
+                    "unexpected {} after a complete expression (implicit multiplication is not \
+                     supported: write `*`)",
+                    self.describe(&token)
+                ),
+            )),
+            _ => Err(Self::error(
+                token.column(),
+                format!(
+                    "unexpected {} after a complete expression",
+                    self.describe(&token)
+                ),
+            )),
+        }
+    }
+
+    fn parse_expression(&mut self) -> Result<Parsed, ExprError> {
+        let mut left = self.parse_term()?;
+        loop {
+            let kind = self.peek().kind.clone();
+            let make: fn(Box<Node>, Box<Node>) -> Node = match kind {
+                TokenKind::Plus => Node::Add,
+                TokenKind::Minus => Node::Subtract,
+                _ => return Ok(left),
+            };
+            self.advance();
+            let right = self.parse_term()?;
+            left = self.binary(make, left, right)?;
+        }
+    }
+
+    fn parse_term(&mut self) -> Result<Parsed, ExprError> {
+        let mut left = self.parse_unary()?;
+        loop {
+            let kind = self.peek().kind.clone();
+            let make: fn(Box<Node>, Box<Node>) -> Node = match kind {
+                TokenKind::Star => Node::Multiply,
+                TokenKind::Slash => Node::Divide,
+                _ => return Ok(left),
+            };
+            self.advance();
+            let right = self.parse_unary()?;
+            left = self.binary(make, left, right)?;
+        }
+    }
+
+    fn parse_unary(&mut self) -> Result<Parsed, ExprError> {
+        let token = self.peek().clone();
+        let negate = match token.kind {
+            TokenKind::Minus => true,
+            TokenKind::Plus => false,
+            _ => return self.parse_power(),
+        };
+        self.advance();
+        self.enter(token.column())?;
+        let operand = self.parse_unary()?;
+        self.leave();
+        if negate {
+            self.finish(
+                Node::Negate(Box::new(operand.node)),
+                token.start,
+                operand.end,
+                operand.depth + 1,
+            )
+        } else {
+            Ok(Parsed {
+                start: token.start,
+                ..operand
+            })
+        }
+    }
+
+    fn parse_power(&mut self) -> Result<Parsed, ExprError> {
+        let base = self.parse_primary()?;
+        if self.peek().kind != TokenKind::Caret {
+            return Ok(base);
+        }
+        let caret = self.advance();
+        self.enter(caret.column())?;
+        let exponent = self.parse_unary()?;
+        self.leave();
+        self.power(base, exponent)
+    }
+
+    fn parse_primary(&mut self) -> Result<Parsed, ExprError> {
+        let token = self.advance();
+        match &token.kind {
+            TokenKind::Number(value) => Ok(Parsed {
+                node: Node::Constant(*value),
+                start: token.start,
+                end: token.end,
+                depth: 1,
+            }),
+            TokenKind::Name(name) => {
+                if self.peek().kind == TokenKind::OpenParen {
+                    self.parse_call(name, &token)
+                } else {
+                    let node = self.resolve_name(name, &token)?;
+                    Ok(Parsed {
+                        node,
+                        start: token.start,
+                        end: token.end,
+                        depth: 1,
+                    })
+                }
+            }
+            TokenKind::OpenParen => {
+                self.enter(token.column())?;
+                let inner = self.parse_expression()?;
+                self.leave();
+                let close = self.advance();
+                match close.kind {
+                    TokenKind::CloseParen => Ok(Parsed {
+                        start: token.start,
+                        end: close.end,
+                        ..inner
+                    }),
+                    TokenKind::End => Err(Self::error(
+                        token.column(),
+                        "unbalanced parentheses: this `(` is never closed",
+                    )),
+                    _ => Err(Self::error(
+                        close.column(),
+                        format!(
+                            "expected an operator or `)` closing the `(` at column {}, found {}",
+                            token.column(),
+                            self.describe(&close)
+                        ),
+                    )),
+                }
+            }
+            _ => Err(Self::error(
+                token.column(),
+                format!(
+                    "expected a number, variable, function call or `(`, found {}",
+                    self.describe(&token)
+                ),
+            )),
+        }
+    }
+
+    /// Parse `name(arguments)`; the current token is the `(`.
+    fn parse_call(&mut self, name: &str, name_token: &Token) -> Result<Parsed, ExprError> {
+        let Some(function) = lookup_function(name) else {
+            let hint = if self.variables.contains(&name) || self.constant_value(name).is_some() {
+                format!(" (`{name}` is a variable or constant; write `{name}*(...)` to multiply)")
+            } else {
+                format!(" (known functions: {FUNCTION_NAMES})")
+            };
+            return Err(Self::error(
+                name_token.column(),
+                format!("unknown function `{name}`{hint}"),
+            ));
+        };
+        let open = self.advance();
+        self.enter(open.column())?;
+        let mut arguments = Vec::new();
+        let close = if self.peek().kind == TokenKind::CloseParen {
+            self.advance()
+        } else {
+            loop {
+                arguments.push(self.parse_expression()?);
+                let separator = self.advance();
+                match separator.kind {
+                    TokenKind::Comma => continue,
+                    TokenKind::CloseParen => break separator,
+                    TokenKind::End => {
+                        return Err(Self::error(
+                            open.column(),
+                            format!("unbalanced parentheses: the `(` of `{name}(` is never closed"),
+                        ))
+                    }
+                    _ => {
+                        return Err(Self::error(
+                            separator.column(),
+                            format!(
+                                "expected `,` or `)` in the arguments of `{name}`, found {}",
+                                self.describe(&separator)
+                            ),
+                        ))
+                    }
+                }
+            }
+        };
+        self.leave();
+        let expected = match function {
+            Function::Unary(_) => 1,
+            Function::Min | Function::Max | Function::Pow => 2,
+        };
+        if arguments.len() != expected {
+            let plural = if expected == 1 { "" } else { "s" };
+            return Err(Self::error(
+                name_token.column(),
+                format!(
+                    "function `{name}` takes {expected} argument{plural}, found {}",
+                    arguments.len()
+                ),
+            ));
+        }
+        let mut arguments = arguments.into_iter();
+        let first = arguments.next().expect("argument count checked");
+        let second = arguments.next();
+        let (start, end) = (name_token.start, close.end);
+        match (function, second) {
+            (Function::Unary(unary), None) => {
+                let depth = first.depth + 1;
+                self.finish(Node::Apply(unary, Box::new(first.node)), start, end, depth)
+            }
+            (Function::Min, Some(second)) => {
+                let depth = first.depth.max(second.depth) + 1;
+                let node = Node::Min(Box::new(first.node), Box::new(second.node));
+                self.finish(node, start, end, depth)
+            }
+            (Function::Max, Some(second)) => {
+                let depth = first.depth.max(second.depth) + 1;
+                let node = Node::Max(Box::new(first.node), Box::new(second.node));
+                self.finish(node, start, end, depth)
+            }
+            (Function::Pow, Some(second)) => {
+                let parsed = self.power(first, second)?;
+                Ok(Parsed {
+                    start,
+                    end,
+                    ..parsed
+                })
+            }
+            _ => unreachable!("argument count checked against the function"),
+        }
+    }
+
+    /// Value of a constant (user constants, then `pi`, `e`), if `name` is one.
+    fn constant_value(&self, name: &str) -> Option<f64> {
+        self.constants.get(name).copied().or_else(|| {
+            BUILTIN_CONSTANTS
+                .iter()
+                .find(|(builtin, _)| *builtin == name)
+                .map(|(_, value)| *value)
+        })
+    }
+
+    fn resolve_name(&self, name: &str, token: &Token) -> Result<Node, ExprError> {
+        let slot = self.variables.iter().position(|variable| *variable == name);
+        let constant = self.constant_value(name);
+        match (slot, constant) {
+            (Some(_), Some(_)) => Err(Self::error(
+                token.column(),
+                format!("ambiguous name `{name}`: it is both a variable and a constant"),
+            )),
+            (Some(slot), None) => Ok(Node::Variable(slot)),
+            (None, Some(value)) => {
+                if let Some((_, builtin)) = BUILTIN_CONSTANTS.iter().find(|(b, _)| *b == name) {
+                    if value != *builtin {
+                        return Err(Self::error(
+                            token.column(),
+                            format!(
+                                "constant `{name}` = {value} redefines the built-in `{name}` = \
+                                 {builtin}"
+                            ),
+                        ));
+                    }
+                }
+                if !value.is_finite() {
+                    return Err(Self::error(
+                        token.column(),
+                        format!("constant `{name}` = {value} is not finite"),
+                    ));
+                }
+                Ok(Node::Constant(value))
+            }
+            (None, None) => {
+                let message = if lookup_function(name).is_some() {
+                    format!("function `{name}` needs its arguments in parentheses: `{name}(...)`")
+                } else {
+                    let mut constants: Vec<&str> =
+                        BUILTIN_CONSTANTS.iter().map(|(name, _)| *name).collect();
+                    for key in self.constants.keys() {
+                        if !constants.contains(&key.as_str()) {
+                            constants.push(key);
+                        }
+                    }
+                    format!(
+                        "unknown variable `{name}` (known: {}; constants: {})",
+                        if self.variables.is_empty() {
+                            "none".to_string()
+                        } else {
+                            self.variables.join(", ")
+                        },
+                        constants.join(", ")
+                    )
+                };
+                Err(Self::error(token.column(), message))
+            }
+        }
+    }
+
+    fn binary(
+        &self,
+        make: fn(Box<Node>, Box<Node>) -> Node,
+        left: Parsed,
+        right: Parsed,
+    ) -> Result<Parsed, ExprError> {
+        let depth = left.depth.max(right.depth) + 1;
+        self.finish(
+            make(Box::new(left.node), Box::new(right.node)),
+            left.start,
+            right.end,
+            depth,
+        )
+    }
+
+    /// `base ^ exponent`, specialized on a constant exponent (see the module documentation).
+    fn power(&self, base: Parsed, exponent: Parsed) -> Result<Parsed, ExprError> {
+        let depth = base.depth.max(exponent.depth) + 1;
+        let node = match exponent.node {
+            Node::Constant(value)
+                if value == value.trunc() && value.abs() <= MAX_INTEGER_EXPONENT =>
+            {
+                // Exact: |value| ≤ 1000 is an integer representable in i32.
+                Node::PowerInteger(Box::new(base.node), value as i32)
+            }
+            Node::Constant(value) => Node::PowerReal(Box::new(base.node), value),
+            variable => Node::PowerVariable(Box::new(base.node), Box::new(variable)),
+        };
+        self.finish(node, base.start, exponent.end, depth)
+    }
+
+    /// Check the depth of a new node and fold it to a constant if its children are constant.
+    fn finish(
+        &self,
+        node: Node,
+        start: usize,
+        end: usize,
+        depth: usize,
+    ) -> Result<Parsed, ExprError> {
+        let (node, depth) = if children_are_constant(&node) {
+            let value = evaluate::<f64>(&node, &[]);
+            if !value.is_finite() {
+                let text: String = self.source[start..end].iter().collect();
+                return Err(Self::error(
+                    start + 1,
+                    format!("constant subexpression `{text}` evaluates to {value}, not finite"),
+                ));
+            }
+            (Node::Constant(value), 1)
+        } else if depth > MAX_DEPTH {
+            return Err(Self::error(
+                start + 1,
+                format!("expression nested too deeply (tree depth above {MAX_DEPTH})"),
+            ));
+        } else {
+            (node, depth)
+        };
+        Ok(Parsed {
+            node,
+            start,
+            end,
+            depth,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{SMatrix, SVector};
+    use num_dual::{
+        gradient, hessian, third_derivative, Dual2SVec, Dual2SVec64, DualSVec64, DualVec,
+    };
+    use proptest::prelude::*;
+    use std::f64::consts::{E, PI};
+
+    const SPACE_TIME: [&str; 4] = ["x", "y", "z", "t"];
+
+    /// A scalar field of (x, y, z, t), written out by hand.
+    type Field<D> = fn(D, D, D, D) -> D;
+    /// A scalar function of the point [x, y, z, t].
+    type PointFunction = fn([f64; 4]) -> f64;
+
+    fn user_constants() -> BTreeMap<String, f64> {
+        BTreeMap::from([("a".to_string(), 0.3)])
+    }
+
+    fn parse(source: &str) -> Expr {
+        Expr::parse(source, &SPACE_TIME, &user_constants())
+            .unwrap_or_else(|error| panic!("`{source}` does not parse: {error}"))
+    }
+
+    fn parse_error(source: &str) -> ExprError {
+        match Expr::parse(source, &SPACE_TIME, &user_constants()) {
+            Ok(_) => panic!("`{source}` parsed but should not"),
+            Err(error) => error,
+        }
+    }
+
+    fn close(computed: f64, expected: f64) -> bool {
+        (computed - expected).abs() <= 1e-13 * (1.0 + expected.abs())
+    }
+
+    fn max_generic<D: DualNum<Primitive = f64> + Copy>(a: D, b: D) -> D {
+        if a.re() >= b.re() {
+            a
+        } else {
+            b
+        }
+    }
+
+    /// The case files' expressions, written out by hand in Rust, generically.
+    fn displacement<D: DualNum<Primitive = f64> + Copy>(x: D, y: D, _z: D, t: D) -> D {
+        (x * PI).sin() * 0.1 * (t + 1.0).powi(2) * max_generic(D::from(0.0), y - 0.3).powi(4)
+    }
+    const DISPLACEMENT: &str = "0.1*sin(pi*x)*(1+t)^2*max(0, y-0.3)^4";
+
+    fn mixed<D: DualNum<Primitive = f64> + Copy>(x: D, y: D, z: D, t: D) -> D {
+        (-t).exp() * (y * (2.0 * PI)).cos() + x * x * y - z / 3.0 + (x - 0.5).powi(3)
+            - (z * z + 1.0).sqrt() * (y + 2.0).ln()
+            + (t * 0.3).tan() * (x * z).tanh()
+    }
+    const MIXED: &str = "exp(-t)*cos(2*pi*y) + x^2*y - z/3 + (x-0.5)^3 \
+                         - sqrt(z^2+1)*log(y+2) + tan(0.3*t)*tanh(x*z)";
+
+    fn powers<D: DualNum<Primitive = f64> + Copy>(x: D, y: D, z: D, t: D) -> D {
+        (x + 3.0).powf(1.5) + ((y + 2.0).ln() * (t + 1.0)).exp() + (z * z + 1.0).powi(-2) * E
+    }
+    const POWERS: &str = "pow(x+3, 1.5) + (y+2)^(t+1) + (z^2+1)^-2*e";
+
+    fn points() -> Vec<[f64; 4]> {
+        vec![
+            [0.25, 0.7, -0.4, 0.5],
+            [0.9, 0.1, 0.3, 1.5],
+            [-0.3, 0.45, 1.2, 0.0],
+        ]
+    }
+
+    #[test]
+    fn values_match_hand_written_rust() {
+        let cases: [(&str, Field<f64>); 3] = [
+            (DISPLACEMENT, displacement::<f64>),
+            (MIXED, mixed::<f64>),
+            (POWERS, powers::<f64>),
+        ];
+        for (source, reference) in cases {
+            let expression = parse(source);
+            for [x, y, z, t] in points() {
+                let computed = expression.eval_f64(&[x, y, z, t]);
+                let expected = reference(x, y, z, t);
+                assert!(
+                    close(computed, expected),
+                    "`{source}` at {:?}: {computed} vs {expected}",
+                    [x, y, z, t]
+                );
+            }
+        }
+        let more: [(&str, PointFunction); 3] = [
+            ("abs(x - 1) + min(y, z)", |[x, y, z, _]: [f64; 4]| {
+                (x - 1.0).abs() + y.min(z)
+            }),
+            ("max(x, y) * -z^2 / (1 + t)", |[x, y, z, t]: [f64; 4]| {
+                x.max(y) * -(z * z) / (1.0 + t)
+            }),
+            ("a * x + 1e-3 * .5 + 2.5E+1", |[x, _, _, _]: [f64; 4]| {
+                0.3 * x + 5e-4 + 25.0
+            }),
+        ];
+        for (source, reference) in more {
+            let expression = parse(source);
+            for point in points() {
+                let computed = expression.eval_f64(&point);
+                assert!(close(computed, reference(point)), "`{source}` at {point:?}");
+            }
+        }
+    }
+
+    #[test]
+    fn first_and_second_derivatives_match_num_dual_on_rust_closures() {
+        let cases: [(&str, Field<DualSVec64<4>>, Field<Dual2SVec64<4>>); 3] = [
+            (DISPLACEMENT, displacement, displacement),
+            (MIXED, mixed, mixed),
+            (POWERS, powers, powers),
+        ];
+        for (source, first_order, second_order) in cases {
+            let expression = parse(source);
+            for point in points() {
+                let at = SVector::<f64, 4>::from(point);
+                let (value, grad) = gradient(
+                    |v: SVector<DualSVec64<4>, 4>| expression.eval(v.as_slice()),
+                    &at,
+                );
+                let (value_ref, grad_ref) = gradient(
+                    |v: SVector<DualSVec64<4>, 4>| first_order(v[0], v[1], v[2], v[3]),
+                    &at,
+                );
+                assert!(close(value, value_ref), "`{source}` value at {point:?}");
+                for i in 0..4 {
+                    assert!(
+                        close(grad[i], grad_ref[i]),
+                        "`{source}` gradient {i} at {point:?}: {} vs {}",
+                        grad[i],
+                        grad_ref[i]
+                    );
+                }
+                let (_, _, hess) = hessian(
+                    |v: SVector<Dual2SVec64<4>, 4>| expression.eval(v.as_slice()),
+                    &at,
+                );
+                let (_, _, hess_ref): (f64, SVector<f64, 4>, SMatrix<f64, 4, 4>) = hessian(
+                    |v: SVector<Dual2SVec64<4>, 4>| second_order(v[0], v[1], v[2], v[3]),
+                    &at,
+                );
+                for i in 0..4 {
+                    for j in 0..4 {
+                        assert!(
+                            close(hess[(i, j)], hess_ref[(i, j)]),
+                            "`{source}` hessian ({i},{j}) at {point:?}: {} vs {}",
+                            hess[(i, j)],
+                            hess_ref[(i, j)]
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn smooth_join_and_negative_base_derivatives_are_exact() {
+        let expression = parse("max(0, y-a)^4 + (x-0.5)^3");
+        // Below the join: only the cubic contributes, 3 (x-0.5)^2 with x - 0.5 < 0 (powi).
+        let at = SVector::<f64, 4>::from([0.2, 0.1, 0.0, 0.0]);
+        let (_, grad) = gradient(
+            |v: SVector<DualSVec64<4>, 4>| expression.eval(v.as_slice()),
+            &at,
+        );
+        assert!(close(grad[0], 3.0 * 0.09) && grad[1] == 0.0, "{grad:?}");
+        // Above the join: 4 (y - a)^3.
+        let at = SVector::<f64, 4>::from([0.2, 0.5, 0.0, 0.0]);
+        let (_, grad, hess) = hessian(
+            |v: SVector<Dual2SVec64<4>, 4>| expression.eval(v.as_slice()),
+            &at,
+        );
+        assert!(close(grad[1], 4.0 * 0.2f64.powi(3)), "{grad:?}");
+        assert!(close(hess[(1, 1)], 12.0 * 0.04), "{hess:?}");
+        assert!(close(hess[(0, 0)], 6.0 * (0.2 - 0.5)), "{hess:?}");
+        assert_eq!(hess[(0, 1)], 0.0);
+    }
+
+    #[test]
+    fn third_derivatives_are_exact() {
+        let expression = Expr::parse("x^4 + sin(2*x)", &["x"], &BTreeMap::new()).unwrap();
+        for x in [-0.7, 0.0, 0.4, 1.3] {
+            let (value, first, second, third) = third_derivative(|v| expression.eval(&[v]), x);
+            assert!(close(value, x.powi(4) + (2.0 * x).sin()));
+            assert!(close(first, 4.0 * x.powi(3) + 2.0 * (2.0 * x).cos()));
+            assert!(close(second, 12.0 * x * x - 4.0 * (2.0 * x).sin()));
+            assert!(close(third, 24.0 * x - 8.0 * (2.0 * x).cos()));
+        }
+    }
+
+    #[test]
+    fn nested_duals_give_the_gradient_of_the_laplacian() {
+        // u = sin(pi x) y^3: Δu = sin(pi x) (6 y - pi^2 y^3).
+        let expression = Expr::parse("sin(pi*x)*y^3", &["x", "y"], &BTreeMap::new()).unwrap();
+        let laplacian = |v: SVector<DualSVec64<2>, 2>| {
+            let (_, _, hess) = hessian(
+                |w: SVector<Dual2SVec<DualVec<f64, nalgebra::Const<2>>, 2>, 2>| {
+                    expression.eval(w.as_slice())
+                },
+                &v,
+            );
+            hess[(0, 0)] + hess[(1, 1)]
+        };
+        let (x, y) = (0.3, 0.8);
+        let (value, grad) = gradient(laplacian, &SVector::from([x, y]));
+        let (s, c) = (PI * x).sin_cos();
+        assert!(close(value, s * (6.0 * y - PI * PI * y.powi(3))));
+        assert!(close(grad[0], PI * c * (6.0 * y - PI * PI * y.powi(3))));
+        assert!(close(grad[1], s * (6.0 - 3.0 * PI * PI * y * y)));
+    }
+
+    #[test]
+    fn precedence_and_associativity() {
+        let cases = [
+            ("-x^2", -9.0),
+            ("-2^2", -4.0),
+            ("(-2)^2", 4.0),
+            ("2^3^2", 512.0),
+            ("2^-1", 0.5),
+            ("2^-1^2", 0.5),
+            ("2*3+4", 10.0),
+            ("2+3*4", 14.0),
+            ("2-3-4", -5.0),
+            ("16/4/2", 2.0),
+            ("2*x^2", 18.0),
+            ("--x", 3.0),
+            ("+x", 3.0),
+            ("x - -1", 4.0),
+            ("2 * -x", -6.0),
+            ("-x*2", -6.0),
+            ("x^2/x", 3.0),
+            ("(1+2)*(3+4)", 21.0),
+            ("pow(2, 3)^2", 64.0),
+            ("max(1,2)*min(3,4)", 6.0),
+            ("abs(-x)", 3.0),
+            (".5e1 + 1.", 6.0),
+        ];
+        for (source, expected) in cases {
+            let value = parse(source).eval_f64(&[3.0, 0.0, 0.0, 0.0]);
+            assert_eq!(value, expected, "`{source}`");
+        }
+    }
+
+    #[test]
+    fn constant_exponents_are_specialized() {
+        let root = |source: &str| parse(source).root;
+        assert!(matches!(root("x^(1+1)"), Node::PowerInteger(_, 2)));
+        assert!(matches!(root("pow(x, -3)"), Node::PowerInteger(_, -3)));
+        assert!(matches!(root("x^(1/2)"), Node::PowerReal(_, p) if p == 0.5));
+        assert!(matches!(root("x^y"), Node::PowerVariable(_, _)));
+        assert!(matches!(root("x^1e9"), Node::PowerReal(_, _)));
+        assert_eq!(root("2*pi - sin(0)"), Node::Constant(2.0 * PI));
+    }
+
+    #[test]
+    fn used_variables_lists_occurring_names_in_declaration_order() {
+        assert_eq!(parse("t*y + sin(y)").used_variables(), vec!["y", "t"]);
+        assert!(parse("pi*a").used_variables().is_empty());
+        let expression = parse(DISPLACEMENT);
+        assert_eq!(expression.used_variables(), vec!["x", "y", "t"]);
+        assert_eq!(expression.variables(), SPACE_TIME);
+        assert_eq!(expression.to_string(), DISPLACEMENT);
+    }
+
+    #[test]
+    fn other_variable_sets_bind_in_their_order() {
+        let expression = Expr::parse(
+            "beta * tr_eps + 2 * eps_eps",
+            &["beta", "tr_eps", "eps_eps"],
+            &BTreeMap::new(),
+        )
+        .unwrap();
+        assert_eq!(expression.eval_f64(&[0.5, 2.0, 3.0]), 7.0);
+    }
+
+    #[test]
+    fn errors_name_the_column_and_the_problem() {
+        let cases = [
+            ("x + #", 5, "unexpected character `#`"),
+            ("x \u{2212} 1", 3, "ASCII minus"),
+            ("(x + 1", 1, "unbalanced parentheses"),
+            ("x + 1)", 6, "unbalanced parentheses"),
+            ("max(1, 2", 4, "unbalanced parentheses"),
+            ("foo(x)", 1, "unknown function `foo`"),
+            ("x(2)", 1, "unknown function `x`"),
+            ("max(x)", 1, "function `max` takes 2 arguments, found 1"),
+            ("sin(x, y)", 1, "function `sin` takes 1 argument, found 2"),
+            ("pow()", 1, "function `pow` takes 2 arguments, found 0"),
+            ("sin x", 1, "needs its arguments"),
+            ("x y", 3, "unexpected `y` after a complete expression"),
+            ("2x", 2, "implicit multiplication"),
+            ("x, y", 2, "unexpected `,`"),
+            ("", 1, "empty expression"),
+            ("   ", 1, "empty expression"),
+            ("x +", 4, "found end of input"),
+            ("2 * (x + )", 10, "found `)`"),
+            ("min(1 2)", 7, "expected `,` or `)`"),
+            ("1e999 * x", 1, "out of the range"),
+            (
+                "x + ln(0)",
+                5,
+                "constant subexpression `ln(0)` evaluates to -inf",
+            ),
+            ("x / (1 - 1)^-1", 5, "not finite"),
+        ];
+        for (source, column, fragment) in cases {
+            let error = parse_error(source);
+            assert_eq!(error.column, column, "`{source}`: {error}");
+            assert!(
+                error.message.contains(fragment),
+                "`{source}`: `{}` lacks `{fragment}`",
+                error.message
+            );
+        }
+        assert_eq!(
+            parse_error("x + w").to_string(),
+            "column 5: unknown variable `w` (known: x, y, z, t; constants: pi, e, a)"
+        );
+    }
+
+    #[test]
+    fn conflicting_names_are_errors() {
+        let constants = BTreeMap::from([("x".to_string(), 1.0), ("e".to_string(), 2.0)]);
+        let error = Expr::parse("2*x", &SPACE_TIME, &constants).unwrap_err();
+        assert_eq!(error.column, 3);
+        assert!(error.message.contains("ambiguous"), "{error}");
+        let error = Expr::parse("y + e", &SPACE_TIME, &constants).unwrap_err();
+        assert_eq!(error.column, 5);
+        assert!(error.message.contains("redefines the built-in"), "{error}");
+        let constants = BTreeMap::from([("c".to_string(), f64::NAN)]);
+        let error = Expr::parse("y + c", &SPACE_TIME, &constants).unwrap_err();
+        assert!(error.message.contains("not finite"), "{error}");
+    }
+
+    #[test]
+    fn deep_nesting_is_an_error_not_a_stack_overflow() {
+        let deep = format!("{}x{}", "(".repeat(100_000), ")".repeat(100_000));
+        assert!(parse_error(&deep).message.contains("nested too deeply"));
+        let signs = format!("{}x", "-".repeat(100_000));
+        assert!(parse_error(&signs).message.contains("nested too deeply"));
+        let long_sum = vec!["x"; 100_000].join("+");
+        assert!(parse_error(&long_sum).message.contains("nested too deeply"));
+        // Long constant sums fold to one constant and are fine.
+        let constant_sum = vec!["1"; 10_000].join("+");
+        assert_eq!(parse(&constant_sum).eval_f64(&[0.0; 4]), 10_000.0);
+    }
+
+    // ---- property tests ----------------------------------------------------------------
+
+    /// Independent syntax tree for the printer/re-parser property test.
+    #[derive(Debug, Clone)]
+    enum Tree {
+        Literal(String),
+        Variable(usize),
+        Named(&'static str, f64),
+        Negate(Box<Tree>),
+        Positive(Box<Tree>),
+        Binary(char, Box<Tree>, Box<Tree>),
+        Power(Box<Tree>, Box<Tree>),
+        Call(&'static str, Vec<Tree>),
+        Group(Box<Tree>),
+    }
+
+    fn precedence(tree: &Tree) -> u8 {
+        match tree {
+            Tree::Binary('+' | '-', _, _) => 1,
+            Tree::Binary(_, _, _) => 2,
+            Tree::Negate(_) | Tree::Positive(_) => 3,
+            Tree::Power(_, _) => 4,
+            _ => 5,
+        }
+    }
+
+    /// Print with the parentheses the grammar requires (plus the tree's own `Group`s).
+    fn print(tree: &Tree, minimum: u8) -> String {
+        let text = match tree {
+            Tree::Literal(text) => text.clone(),
+            Tree::Variable(slot) => SPACE_TIME[*slot].to_string(),
+            Tree::Named(name, _) => name.to_string(),
+            Tree::Negate(operand) => format!("-{}", print(operand, 3)),
+            Tree::Positive(operand) => format!("+{}", print(operand, 3)),
+            Tree::Binary(operator, left, right) => {
+                let level = precedence(tree);
+                format!(
+                    "{} {operator} {}",
+                    print(left, level),
+                    print(right, level + 1)
+                )
+            }
+            Tree::Power(base, exponent) => format!("{}^{}", print(base, 5), print(exponent, 3)),
+            Tree::Call(name, arguments) => {
+                let arguments: Vec<String> = arguments
+                    .iter()
+                    .map(|argument| print(argument, 0))
+                    .collect();
+                format!("{name}({})", arguments.join(", "))
+            }
+            Tree::Group(inner) => format!("({})", print(inner, 0)),
+        };
+        if precedence(tree) < minimum {
+            format!("({text})")
+        } else {
+            text
+        }
+    }
+
+    /// Reference evaluation mirroring the documented semantics (folding, exponent
+    /// specialization, branch selection). Returns (value, is constant, has a non-finite
+    /// constant subexpression).
+    fn reference(tree: &Tree, values: &[f64; 4]) -> (f64, bool, bool) {
+        let pick = |a: f64, b: f64, keep_first: bool| {
+            if a.is_nan() || (!b.is_nan() && keep_first) {
+                a
+            } else {
+                b
+            }
+        };
+        let (value, constant, invalid) = match tree {
+            Tree::Literal(text) => (text.parse().unwrap(), true, false),
+            Tree::Variable(slot) => (values[*slot], false, false),
+            Tree::Named(_, value) => (*value, true, false),
+            Tree::Negate(operand) => {
+                let (value, constant, invalid) = reference(operand, values);
+                (-value, constant, invalid)
+            }
+            Tree::Positive(operand) | Tree::Group(operand) => reference(operand, values),
+            Tree::Binary(operator, left, right) => {
+                let (a, a_constant, a_invalid) = reference(left, values);
+                let (b, b_constant, b_invalid) = reference(right, values);
+                let value = match operator {
+                    '+' => a + b,
+                    '-' => a - b,
+                    '*' => a * b,
+                    _ => a / b,
+                };
+                (value, a_constant && b_constant, a_invalid || b_invalid)
+            }
+            Tree::Power(base, exponent) => power_reference(base, exponent, values),
+            Tree::Call(name, arguments) => {
+                if *name == "pow" {
+                    power_reference(&arguments[0], &arguments[1], values)
+                } else {
+                    let evaluated: Vec<_> = arguments
+                        .iter()
+                        .map(|argument| reference(argument, values))
+                        .collect();
+                    let constant = evaluated.iter().all(|(_, constant, _)| *constant);
+                    let invalid = evaluated.iter().any(|(_, _, invalid)| *invalid);
+                    let a = evaluated[0].0;
+                    let value = match *name {
+                        "sqrt" => a.sqrt(),
+                        "exp" => a.exp(),
+                        "ln" | "log" => a.ln(),
+                        "sin" => a.sin(),
+                        "cos" => a.cos(),
+                        "tan" => a.tan(),
+                        "tanh" => a.tanh(),
+                        "abs" => {
+                            if a < 0.0 {
+                                -a
+                            } else {
+                                a
+                            }
+                        }
+                        "min" => pick(a, evaluated[1].0, a <= evaluated[1].0),
+                        "max" => pick(a, evaluated[1].0, a >= evaluated[1].0),
+                        other => unreachable!("no function {other} is generated"),
+                    };
+                    (value, constant, invalid)
+                }
+            }
+        };
+        (value, constant, invalid || (constant && !value.is_finite()))
+    }
+
+    fn power_reference(base: &Tree, exponent: &Tree, values: &[f64; 4]) -> (f64, bool, bool) {
+        let (a, a_constant, a_invalid) = reference(base, values);
+        let (b, b_constant, b_invalid) = reference(exponent, values);
+        let value = if b_constant && b == b.trunc() && b.abs() <= 1000.0 {
+            a.powi(b as i32)
+        } else if b_constant {
+            a.powf(b)
+        } else {
+            (a.ln() * b).exp()
+        };
+        (value, a_constant && b_constant, a_invalid || b_invalid)
+    }
+
+    fn tree_strategy() -> impl Strategy<Value = Tree> {
+        let literal = prop_oneof![
+            (0u32..20).prop_map(|n| n.to_string()),
+            (0u32..1000).prop_map(|n| format!("{}.{:02}", n / 100, n % 100)),
+            (1u32..10, -3i32..3).prop_map(|(m, e)| format!("{m}e{e}")),
+            (1u32..10).prop_map(|d| format!(".{d}")),
+        ]
+        .prop_map(Tree::Literal);
+        let leaf = prop_oneof![
+            3 => literal,
+            4 => (0usize..4).prop_map(Tree::Variable),
+            1 => prop_oneof![
+                Just(Tree::Named("pi", PI)),
+                Just(Tree::Named("e", E)),
+                Just(Tree::Named("a", 0.3)),
+            ],
+        ];
+        leaf.prop_recursive(5, 40, 2, |inner| {
+            let unary_names = prop_oneof![
+                Just("sqrt"),
+                Just("exp"),
+                Just("ln"),
+                Just("log"),
+                Just("sin"),
+                Just("cos"),
+                Just("tan"),
+                Just("tanh"),
+                Just("abs"),
+            ];
+            let binary_names = prop_oneof![Just("min"), Just("max"), Just("pow")];
+            prop_oneof![
+                inner.clone().prop_map(|t| Tree::Negate(Box::new(t))),
+                inner.clone().prop_map(|t| Tree::Positive(Box::new(t))),
+                inner.clone().prop_map(|t| Tree::Group(Box::new(t))),
+                (
+                    prop_oneof![Just('+'), Just('-'), Just('*'), Just('/')],
+                    inner.clone(),
+                    inner.clone()
+                )
+                    .prop_map(|(op, l, r)| Tree::Binary(
+                        op,
+                        Box::new(l),
+                        Box::new(r)
+                    )),
+                (inner.clone(), inner.clone())
+                    .prop_map(|(b, e)| Tree::Power(Box::new(b), Box::new(e))),
+                (unary_names, inner.clone()).prop_map(|(name, t)| Tree::Call(name, vec![t])),
+                (binary_names, inner.clone(), inner)
+                    .prop_map(|(name, a, b)| Tree::Call(name, vec![a, b])),
+            ]
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+
+        #[test]
+        fn printed_random_trees_reparse_to_the_same_value(
+            tree in tree_strategy(),
+            values in proptest::array::uniform4(-2.0f64..2.0),
+        ) {
+            let source = print(&tree, 0);
+            let (expected, _, invalid_constant) = reference(&tree, &values);
+            match Expr::parse(&source, &SPACE_TIME, &user_constants()) {
+                Ok(expression) => {
+                    prop_assert!(!invalid_constant, "`{source}` should fail (non-finite constant)");
+                    let value = expression.eval_f64(&values);
+                    prop_assert!(
+                        value.to_bits() == expected.to_bits() || (value.is_nan() && expected.is_nan()),
+                        "`{source}` at {values:?}: parsed {value} vs reference {expected}"
+                    );
+                }
+                Err(error) => {
+                    prop_assert!(invalid_constant, "`{source}` failed: {error}");
+                    prop_assert!(error.message.contains("not finite"), "`{source}`: {error}");
+                }
+            }
+        }
+
+        #[test]
+        fn garbage_never_panics(source in "[-+*/^(),.0-9a-z_ eE#]{0,40}") {
+            if let Ok(expression) = Expr::parse(&source, &SPACE_TIME, &user_constants()) {
+                let _ = expression.eval_f64(&[0.1, 0.2, 0.3, 0.4]);
+                let _ = expression.used_variables();
+            }
+        }
+
+        #[test]
+        fn arbitrary_unicode_never_panics(source in any::<String>()) {
+            if let Ok(expression) = Expr::parse(&source, &SPACE_TIME, &user_constants()) {
+                let _ = expression.eval_f64(&[0.1, 0.2, 0.3, 0.4]);
+            }
+        }
+    }
+}
