@@ -7,8 +7,9 @@
 
 use crate::{Error, Result};
 
-/// Local edges of the reference simplex as vertex pairs: D=1: [[0,1]]; D=2: [[0,1],[1,2],[0,2]];
-/// D=3: [[0,1],[1,2],[0,2],[0,3],[1,3],[2,3]]. `dim = 0` gives no edges.
+/// Local edges of the reference simplex as vertex pairs: D=1: `[[0,1]]`;
+/// D=2: `[[0,1],[1,2],[0,2]]`; D=3: `[[0,1],[1,2],[0,2],[0,3],[1,3],[2,3]]`.
+/// `dim = 0` gives no edges.
 ///
 /// # Panics
 /// If `dim > 3` (a programming error: only simplices up to tetrahedra exist in this crate).
@@ -255,6 +256,7 @@ mod tests {
 
     /// Interpolates a random polynomial of degree ≤ the element degree at the nodes and checks
     /// that the interpolant and its gradient equal the polynomial and its gradient everywhere.
+    #[allow(clippy::needless_range_loop)] // index notation of the quadratic form ξᵀAξ
     fn check_polynomial_reproduction<const D: usize>() {
         let mut rng = Lcg(13);
         for element in elements::<D>() {
