@@ -4,3 +4,6 @@
 pub mod error;
 
 pub use error::{Error, Result};
+pub mod element;
+pub mod mesh;
+pub mod quadrature;
