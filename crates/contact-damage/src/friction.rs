@@ -35,7 +35,10 @@
 //! - `dual_infeasibility` = max over stick blocks of w_a (|λ̂_a| − 1)₊ / scale = (|g_a| − w_a)₊ /
 //!   scale: the part of the stick-block stationarity residual due to projecting λ̂.
 //!
-//! The solver stops when the largest of the three is ≤ the tolerance.
+//! The solver stops when the largest of the three is ≤ the tolerance. A tolerance below the
+//! rounding level of evaluating S x (about ε κ(S) relative, ε the machine epsilon) cannot be met;
+//! the solver then reports [`Error::NoConvergence`] after a few cycles in which neither J nor the
+//! residual improves (instead of exhausting the iteration budgets).
 //!
 //! # Method
 //! **Semismooth Newton (primal–dual active set).** The minimizer is the zero of
@@ -100,6 +103,9 @@ const MIN_STEP: f64 = 1.0 / 1024.0;
 const INITIAL_BURST: usize = 10;
 /// Largest burst of proximal-gradient steps between two Newton attempts.
 const MAX_BURST: usize = 640;
+/// Consecutive Newton-plus-burst cycles without any improvement of J (beyond its rounding band)
+/// or of the KKT residual after which the solver reports that it stagnated at the rounding level.
+const STALL_LIMIT: usize = 5;
 /// Power iterations used to estimate λ_max(S).
 const POWER_ITERATIONS: usize = 30;
 /// Safety factor on the power-iteration estimate of λ_max(S).
@@ -272,7 +278,8 @@ impl CondensedFriction<'_> {
     /// J(x) = ½ xᵀ S x − rᵀ x + Σ_a w_a |x_a| (S through its symmetric part).
     ///
     /// # Panics
-    /// If `x.len()` differs from [`dimension`](Self::dimension) (a programming error).
+    /// If the problem fails [`validate`](Self::validate) or `x.len()` differs from
+    /// [`dimension`](Self::dimension) (programming errors; [`solve`](Self::solve) returns errors).
     pub fn objective(&self, x: &[f64]) -> f64 {
         self.assert_length(x);
         self.with_problem(|problem| {
@@ -286,7 +293,8 @@ impl CondensedFriction<'_> {
     /// σ(S x − r))‖_∞ / (σ max(‖r‖_∞, tiny)) with σ = 1/max_i S_ii (see the module docs).
     ///
     /// # Panics
-    /// If `x.len()` differs from [`dimension`](Self::dimension) (a programming error).
+    /// If the problem fails [`validate`](Self::validate) or `x.len()` differs from
+    /// [`dimension`](Self::dimension) (programming errors; [`solve`](Self::solve) returns errors).
     pub fn kkt_residual(&self, x: &[f64]) -> f64 {
         self.kkt_report(x).natural
     }
@@ -294,7 +302,8 @@ impl CondensedFriction<'_> {
     /// All three parts of the KKT residual at x (natural, stationarity, dual infeasibility).
     ///
     /// # Panics
-    /// If `x.len()` differs from [`dimension`](Self::dimension) (a programming error).
+    /// If the problem fails [`validate`](Self::validate) or `x.len()` differs from
+    /// [`dimension`](Self::dimension) (programming errors; [`solve`](Self::solve) returns errors).
     pub fn kkt_report(&self, x: &[f64]) -> KktResidual {
         self.assert_length(x);
         self.with_problem(|problem| {
@@ -349,6 +358,9 @@ impl CondensedFriction<'_> {
     }
 
     fn assert_length(&self, x: &[f64]) {
+        if let Err(error) = self.validate() {
+            panic!("invalid condensed friction problem: {error}");
+        }
         assert_eq!(
             x.len(),
             self.dimension(),
@@ -830,12 +842,19 @@ impl<'a> Problem<'a> {
         let mut candidate_image = vec![0.0; m];
         let mut trial = vec![0.0; m];
         let mut trial_image = vec![0.0; m];
+        let mut best_residual = report.max();
+        let mut best_energy = energy.value;
+        let mut stalled_cycles = 0;
         while report.max() > tolerance {
-            if stats.newton_iterations >= settings.max_newton
-                && stats.gradient_iterations >= settings.max_gradient
-            {
+            let exhausted = stats.newton_iterations >= settings.max_newton
+                && stats.gradient_iterations >= settings.max_gradient;
+            if exhausted || stalled_cycles >= STALL_LIMIT {
                 return Err(Error::NoConvergence {
-                    solver: "friction semismooth Newton / FISTA",
+                    solver: if exhausted {
+                        "friction semismooth Newton / FISTA"
+                    } else {
+                        "friction semismooth Newton / FISTA (stagnated at the rounding level)"
+                    },
                     iterations: stats.newton_iterations + stats.gradient_iterations,
                     residual: report.max(),
                     tolerance,
@@ -908,6 +927,15 @@ impl<'a> Problem<'a> {
                 history.push(report.max());
                 burst = (2 * burst).min(MAX_BURST);
             }
+            // Stagnation: neither J (beyond its rounding band) nor the residual improved.
+            let band = self.rounding_band(energy.magnitude);
+            if report.max() < (1.0 - 1e-3) * best_residual || energy.value < best_energy - band {
+                stalled_cycles = 0;
+            } else {
+                stalled_cycles += 1;
+            }
+            best_residual = best_residual.min(report.max());
+            best_energy = best_energy.min(energy.value);
         }
         self.multipliers(x, &sx, multipliers);
         for (block, &w) in x.chunks_exact(self.group).zip(self.weights) {
@@ -960,9 +988,14 @@ mod tests {
 
     /// S = BᵀB + αI with B a dense random m × m matrix (not diagonal), α ∈ [0.2, 1.2).
     fn random_spd(m: usize, generator: &mut Generator) -> Mat<f64> {
+        let shift = generator.range(0.2, 1.2);
+        random_spd_with_shift(m, shift, generator)
+    }
+
+    /// S = BᵀB + shift · I with B a dense random m × m matrix, entries of size 1/√m.
+    fn random_spd_with_shift(m: usize, shift: f64, generator: &mut Generator) -> Mat<f64> {
         let scaling = 1.0 / (m as f64).sqrt();
         let factor = Mat::from_fn(m, m, |_, _| generator.range(-1.0, 1.0) * scaling);
-        let shift = generator.range(0.2, 1.2);
         let mut matrix = factor.transpose() * &factor;
         for i in 0..m {
             matrix[(i, i)] += shift;
@@ -1095,13 +1128,9 @@ mod tests {
         let m = x.len();
         let group = problem.group_size;
         let scale = problem.rhs.iter().fold(0.0_f64, |acc, v| acc.max(v.abs()));
-        for i in 0..m {
-            let mut product = 0.0;
-            for j in 0..m {
-                product += problem.matrix[(i, j)] * x[j];
-            }
-            let stationarity =
-                product - problem.rhs[i] + problem.weights[i / group] * multipliers[i];
+        for (i, multiplier) in multipliers.iter().enumerate() {
+            let product: f64 = (0..m).map(|j| problem.matrix[(i, j)] * x[j]).sum();
+            let stationarity = product - problem.rhs[i] + problem.weights[i / group] * multiplier;
             assert!(
                 stationarity.abs() <= 1e-10 * scale,
                 "stationarity residual {stationarity:e} at component {i} (scale {scale:e})"
@@ -1139,10 +1168,13 @@ mod tests {
         kinds
     }
 
+    /// Random data over wide ranges: condition number of S up to ~10⁴, loads of size 10^±3,
+    /// weights log-uniform over three decades (20 % free), starts of size up to 10⁶ · load.
     fn solve_random(group: usize, groups: usize, seed: u64) {
         let mut generator = Generator(seed);
         let m = group * groups;
-        let matrix = random_spd(m, &mut generator);
+        let shift = 10f64.powf(generator.range(-4.0, 0.0));
+        let matrix = random_spd_with_shift(m, shift, &mut generator);
         let amplitude = 10f64.powf(generator.range(-3.0, 3.0));
         let rhs = generator.vector(m, amplitude);
         let weights: Vec<f64> = (0..groups)
@@ -1150,7 +1182,7 @@ mod tests {
                 if generator.uniform() < 0.2 {
                     0.0
                 } else {
-                    amplitude * generator.range(0.0, 1.5)
+                    amplitude * 10f64.powf(generator.range(-2.0, 1.0))
                 }
             })
             .collect();
@@ -1160,7 +1192,8 @@ mod tests {
             weights: &weights,
             group_size: group,
         };
-        let mut x = generator.vector(m, amplitude);
+        let start_amplitude = amplitude * 10f64.powf(generator.range(-2.0, 6.0));
+        let mut x = generator.vector(m, start_amplitude);
         let mut multipliers = vec![0.0; m];
         let stats = problem
             .solve(&mut x, &mut multipliers, &FrictionSettings::default())
@@ -1417,7 +1450,7 @@ mod tests {
         let manufactured = Manufactured::new(&kinds, 2, (0.5, 2.0), &mut generator);
         let problem = manufactured.problem();
         assert!(problem.kkt_residual(&manufactured.solution) <= 1e-13);
-        let report = problem.kkt_report(&vec![0.0; 16]);
+        let report = problem.kkt_report(&[0.0; 16]);
         assert!(report.natural > 1e-3);
         // J at the solution is below J at nearby points (strict convexity).
         let best = problem.objective(&manufactured.solution);
@@ -1524,6 +1557,19 @@ mod tests {
         let indefinite = Mat::from_fn(2, 2, |i, j| if i == j { 1.0 } else { 2.0 });
         let error = small_problem_error(&indefinite, &[1.0; 2], &[0.0; 2], 1, 2);
         assert!(matches!(error, Error::LinearAlgebra { .. }), "{error}");
+    }
+
+    #[test]
+    #[should_panic(expected = "weights[0]")]
+    fn objective_of_an_invalid_problem_panics_with_the_reason() {
+        let matrix = identity(1);
+        let problem = CondensedFriction {
+            matrix: matrix.as_ref(),
+            rhs: &[1.0],
+            weights: &[-1.0],
+            group_size: 1,
+        };
+        problem.objective(&[0.0]);
     }
 
     #[test]
