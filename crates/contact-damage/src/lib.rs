@@ -2,6 +2,7 @@
 //! W. Han, M. Shillor, M. Sofonea, J. Comput. Appl. Math. 137 (2001) 377–398.
 
 pub mod error;
+pub mod friction;
 
 pub use error::{Error, Result};
 pub mod element;
