@@ -1,0 +1,183 @@
+//! Parallel finite element assembly (rayon): element kernels for the velocity operator, the
+//! damage operator and the load vectors, and the scatter of element contributions.
+//!
+//! Matrices are assembled against a [`SparsityPattern`] built once per mesh: a numeric assembly
+//! computes every element matrix in parallel into one flat array and sums it into the pattern.
+
+use crate::laws::{Tensor, Viscosity};
+use crate::space::{CellGeometry, FacetRule, LagrangeSpace, Tabulation};
+use nalgebra::SVector;
+use rayon::prelude::*;
+
+/// Physical basis gradients ∇φ_a = J^{-T} ∇̂φ_a at point q of a tabulation.
+#[inline]
+pub fn physical_gradients<const D: usize>(
+    geometry: &CellGeometry<D>,
+    tabulation: &Tabulation<D>,
+    q: usize,
+    out: &mut [SVector<f64, D>],
+) {
+    let n = tabulation.nodes;
+    for (a, grad) in out.iter_mut().enumerate().take(n) {
+        *grad = geometry.inverse_transpose * tabulation.gradients[q * n + a];
+    }
+}
+
+/// Symmetric gradient of the vector basis function φ_b e_j: ε(φ_b e_j) = sym(e_j ⊗ ∇φ_b).
+#[inline]
+pub fn basis_strain<const D: usize>(gradient: &SVector<f64, D>, component: usize) -> Tensor<D> {
+    let mut strain = Tensor::<D>::zeros();
+    for k in 0..D {
+        strain[(component, k)] += 0.5 * gradient[k];
+        strain[(k, component)] += 0.5 * gradient[k];
+    }
+    strain
+}
+
+/// Strain ε(u) at point q of cell c of a vector field with node-major nodal values.
+#[inline]
+pub fn field_strain<const D: usize>(nodes: &[usize], gradients: &[SVector<f64, D>], nodal: &[f64]) -> Tensor<D> {
+    let mut grad = Tensor::<D>::zeros();
+    for (a, &node) in nodes.iter().enumerate() {
+        for i in 0..D {
+            let value = nodal[node * D + i];
+            if value != 0.0 {
+                for k in 0..D {
+                    grad[(i, k)] += value * gradients[a][k];
+                }
+            }
+        }
+    }
+    (grad + grad.transpose()) * 0.5
+}
+
+/// Element matrix of the linearized viscosity operator, with local dof (a, i) = a·D + i:
+/// K[(a,i),(b,j)] = ∫_K d𝒜(ε(v))[ε(φ_b e_j)] : ε(φ_a e_i) dx — the bilinear form of (5.1)
+/// linearized at the strain rate of `velocity` (ignored for a linear 𝒜).
+pub fn viscous_element_matrix<const D: usize>(
+    law: &dyn Viscosity<D>,
+    space: &LagrangeSpace<D>,
+    tabulation: &Tabulation<D>,
+    cell: usize,
+    velocity: Option<&[f64]>,
+    out: &mut [f64],
+) {
+    let n = tabulation.nodes;
+    let nd = n * D;
+    out.fill(0.0);
+    let geometry = space.geometry(cell);
+    let nodes = space.cell_nodes(cell);
+    let mut grads = [SVector::<f64, D>::zeros(); 10];
+    for q in 0..tabulation.len() {
+        physical_gradients(geometry, tabulation, q, &mut grads);
+        let rate = match velocity {
+            Some(v) => field_strain(nodes, &grads[..n], v),
+            None => Tensor::<D>::zeros(),
+        };
+        let weight = tabulation.weights[q] * geometry.det;
+        for b in 0..n {
+            for j in 0..D {
+                let tangent = law.tangent(&rate, &basis_strain(&grads[b], j)) * weight;
+                let col = b * D + j;
+                for a in 0..n {
+                    let traction = tangent * grads[a];
+                    for i in 0..D {
+                        out[(a * D + i) * nd + col] += traction[i];
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Element matrix of the damage operator m·M + κ·K for scalar P_l:
+/// ∫ m φ_a φ_b + κ ∇φ_a·∇φ_b dx (the matrix of (5.2) with m = 1/k).
+pub fn damage_element_matrix<const D: usize>(
+    space: &LagrangeSpace<D>,
+    tabulation: &Tabulation<D>,
+    cell: usize,
+    mass_coefficient: f64,
+    diffusion: f64,
+    out: &mut [f64],
+) {
+    let n = tabulation.nodes;
+    out.fill(0.0);
+    let geometry = space.geometry(cell);
+    let mut grads = [SVector::<f64, D>::zeros(); 10];
+    for q in 0..tabulation.len() {
+        physical_gradients(geometry, tabulation, q, &mut grads);
+        let weight = tabulation.weights[q] * geometry.det;
+        let values = &tabulation.values[q * n..(q + 1) * n];
+        for a in 0..n {
+            for b in 0..n {
+                out[a * n + b] += weight * (mass_coefficient * values[a] * values[b] + diffusion * grads[a].dot(&grads[b]));
+            }
+        }
+    }
+}
+
+/// Computes per-cell local vectors in parallel with `kernel(cell, local)` and sums them into a
+/// global vector of `components` values per node (node-major).
+pub fn assemble_cell_vector<const D: usize, K>(space: &LagrangeSpace<D>, components: usize, kernel: K) -> Vec<f64>
+where
+    K: Fn(usize, &mut [f64]) + Sync,
+{
+    let local = space.nodes_per_cell() * components;
+    let mut locals = vec![0.0; space.mesh().num_cells() * local];
+    locals
+        .par_chunks_mut(local)
+        .enumerate()
+        .for_each(|(cell, out)| kernel(cell, out));
+    let mut global = vec![0.0; space.num_nodes() * components];
+    for (cell, chunk) in locals.chunks(local).enumerate() {
+        for (a, &node) in space.cell_nodes(cell).iter().enumerate() {
+            for i in 0..components {
+                global[node * components + i] += chunk[a * components + i];
+            }
+        }
+    }
+    global
+}
+
+/// Adds ∫_F g·φ_a dΓ over the boundary facets F selected by `select`, for a `components`-valued
+/// integrand `integrand(x, normal, out)`, with a facet rule of the given degree.
+pub fn add_facet_integrals<const D: usize>(
+    space: &LagrangeSpace<D>,
+    degree: usize,
+    components: usize,
+    select: impl Fn(usize) -> bool,
+    integrand: impl Fn(&[f64; D], &[f64; D], &mut [f64]),
+    global: &mut [f64],
+) {
+    let mesh = space.mesh();
+    let rule = FacetRule::new(D, degree);
+    let element = space.element();
+    let n = element.num_nodes();
+    let mut values = [0.0; 10];
+    let mut data = vec![0.0; components];
+    for f in 0..mesh.num_facets() {
+        if !select(f) {
+            continue;
+        }
+        let cell = mesh.facet_cell(f);
+        let geometry = space.geometry(cell);
+        let normal = mesh.facet_normal(f);
+        let measure = mesh.facet_measure(f);
+        let vertices: Vec<[f64; D]> = mesh.facet(f).iter().map(|&v| mesh.vertex(v)).collect();
+        for (bary, &weight) in rule.barycentric.iter().zip(&rule.weights) {
+            let x: [f64; D] = std::array::from_fn(|i| bary.iter().zip(&vertices).map(|(l, p)| l * p[i]).sum());
+            let xi = geometry.reference_point(&x);
+            element.values(&xi, &mut values[..n]);
+            data.fill(0.0);
+            integrand(&x, &normal, &mut data);
+            for (a, &node) in space.cell_nodes(cell).iter().enumerate() {
+                let phi = values[a] * weight * measure;
+                if phi != 0.0 {
+                    for i in 0..components {
+                        global[node * components + i] += phi * data[i];
+                    }
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,193 @@
+//! Sparse linear algebra: assembly patterns (symbolic once, values many times) and a sparse
+//! Cholesky solver whose symbolic analysis is reused across numeric factorizations (faer).
+
+use crate::{Error, Result};
+use faer::prelude::*;
+use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
+use faer::{Mat, Side};
+
+/// The sparsity pattern of an assembled matrix together with the order in which element values
+/// are summed into it. Entries whose row or column is negative are dropped (eliminated dofs).
+#[derive(Debug, Clone)]
+pub struct SparsityPattern {
+    size: usize,
+    value_count: usize,
+    symbolic: SymbolicSparseColMat<usize>,
+    argsort: Argsort<usize>,
+}
+
+impl SparsityPattern {
+    /// Builds the pattern of a `size × size` matrix from (row, column) pairs, one per element value;
+    /// pairs with a negative index are ignored when values are summed.
+    pub fn from_pairs(size: usize, pairs: &[Pair<isize, isize>]) -> Result<Self> {
+        let (symbolic, argsort) = SymbolicSparseColMat::<usize>::try_new_from_nonnegative_indices(size, size, pairs)
+            .map_err(|e| Error::LinearAlgebra {
+                context: "sparsity pattern".into(),
+                message: format!("{e:?}"),
+            })?;
+        Ok(Self {
+            size,
+            value_count: pairs.len(),
+            symbolic,
+            argsort,
+        })
+    }
+
+    /// Number of rows (= columns).
+    pub fn size(&self) -> usize {
+        self.size
+    }
+
+    /// Number of element values expected by [`SparsityPattern::matrix`].
+    pub fn value_count(&self) -> usize {
+        self.value_count
+    }
+
+    /// Number of stored nonzeros.
+    pub fn nnz(&self) -> usize {
+        self.symbolic.compute_nnz()
+    }
+
+    /// Sums the element values (in the order of the pairs) into a sparse matrix.
+    pub fn matrix(&self, values: &[f64]) -> Result<SparseColMat<usize, f64>> {
+        if values.len() != self.value_count {
+            return Err(Error::InvalidInput(format!(
+                "pattern expects {} values, got {}",
+                self.value_count,
+                values.len()
+            )));
+        }
+        SparseColMat::new_from_argsort(self.symbolic.clone(), &self.argsort, values).map_err(|e| {
+            Error::LinearAlgebra {
+                context: "matrix from pattern".into(),
+                message: format!("{e:?}"),
+            }
+        })
+    }
+}
+
+/// Sparse Cholesky solver for symmetric positive definite matrices of one fixed pattern: the
+/// symbolic analysis (fill-reducing ordering, elimination tree) is done once in
+/// [`CholeskySolver::analyse`], numeric factorizations reuse it.
+#[derive(Debug, Clone)]
+pub struct CholeskySolver {
+    size: usize,
+    symbolic: SymbolicLlt<usize>,
+    factor: Option<Llt<usize, f64>>,
+    context: &'static str,
+}
+
+impl CholeskySolver {
+    /// Symbolic analysis of the pattern of `matrix` (lower triangle is read).
+    pub fn analyse(matrix: &SparseColMat<usize, f64>, context: &'static str) -> Result<Self> {
+        let symbolic = SymbolicLlt::try_new(matrix.symbolic(), Side::Lower).map_err(|e| Error::LinearAlgebra {
+            context: context.into(),
+            message: format!("symbolic Cholesky analysis failed: {e:?}"),
+        })?;
+        Ok(Self {
+            size: matrix.nrows(),
+            symbolic,
+            factor: None,
+            context,
+        })
+    }
+
+    /// Numeric factorization of `matrix` (same pattern as analysed).
+    pub fn factorize(&mut self, matrix: &SparseColMat<usize, f64>) -> Result<()> {
+        let factor = Llt::try_new_with_symbolic(self.symbolic.clone(), matrix.as_ref(), Side::Lower).map_err(|e| {
+            Error::LinearAlgebra {
+                context: self.context.into(),
+                message: format!("Cholesky factorization failed (matrix not positive definite?): {e:?}"),
+            }
+        })?;
+        self.factor = Some(factor);
+        Ok(())
+    }
+
+    /// True once a numeric factorization is available.
+    pub fn is_factorized(&self) -> bool {
+        self.factor.is_some()
+    }
+
+    fn factor(&self) -> Result<&Llt<usize, f64>> {
+        self.factor.as_ref().ok_or_else(|| Error::LinearAlgebra {
+            context: self.context.into(),
+            message: "solve requested before factorization".into(),
+        })
+    }
+
+    /// Solves A x = b.
+    pub fn solve(&self, rhs: &[f64]) -> Result<Vec<f64>> {
+        if rhs.len() != self.size {
+            return Err(Error::InvalidInput(format!(
+                "{}: right-hand side has length {}, expected {}",
+                self.context,
+                rhs.len(),
+                self.size
+            )));
+        }
+        let mut x = Mat::<f64>::from_fn(self.size, 1, |i, _| rhs[i]);
+        self.factor()?.solve_in_place(x.as_mut());
+        Ok((0..self.size).map(|i| x[(i, 0)]).collect())
+    }
+
+    /// Solves A X = B in place for a block of right-hand sides.
+    pub fn solve_block(&self, block: faer::MatMut<'_, f64>) -> Result<()> {
+        self.factor()?.solve_in_place(block);
+        Ok(())
+    }
+}
+
+/// y = A x for a sparse matrix in full (both triangles) storage.
+pub fn multiply(matrix: &SparseColMat<usize, f64>, x: &[f64]) -> Vec<f64> {
+    let mut y = vec![0.0; matrix.nrows()];
+    let col_ptr = matrix.symbolic().col_ptr();
+    let row_idx = matrix.symbolic().row_idx();
+    let values = matrix.val();
+    for (col, &xc) in x.iter().enumerate().take(matrix.ncols()) {
+        if xc == 0.0 {
+            continue;
+        }
+        for k in col_ptr[col]..col_ptr[col + 1] {
+            y[row_idx[k]] += values[k] * xc;
+        }
+    }
+    y
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pattern_sums_duplicates_and_drops_negative_indices() {
+        let pairs = [
+            Pair::new(0isize, 0isize),
+            Pair::new(0, 0),
+            Pair::new(1, 0),
+            Pair::new(0, 1),
+            Pair::new(1, 1),
+            Pair::new(-1, 1),
+        ];
+        let pattern = SparsityPattern::from_pairs(2, &pairs).unwrap();
+        let matrix = pattern.matrix(&[1.0, 2.0, -1.0, -1.0, 4.0, 100.0]).unwrap();
+        let x = multiply(&matrix, &[1.0, 1.0]);
+        assert_eq!(x, vec![2.0, 3.0]);
+        let mut solver = CholeskySolver::analyse(&matrix, "test").unwrap();
+        assert!(solver.solve(&[1.0, 0.0]).is_err());
+        solver.factorize(&matrix).unwrap();
+        let y = solver.solve(&[2.0, 3.0]).unwrap();
+        assert!((y[0] - 1.0).abs() < 1e-14 && (y[1] - 1.0).abs() < 1e-14);
+    }
+
+    #[test]
+    fn cholesky_rejects_indefinite_matrix() {
+        let pairs = [Pair::new(0isize, 0isize), Pair::new(1, 1)];
+        let pattern = SparsityPattern::from_pairs(2, &pairs).unwrap();
+        let matrix = pattern.matrix(&[1.0, -1.0]).unwrap();
+        let mut solver = CholeskySolver::analyse(&matrix, "test matrix").unwrap();
+        let err = solver.factorize(&matrix).unwrap_err();
+        assert!(err.to_string().contains("test matrix"));
+    }
+}

@@ -1,0 +1,438 @@
+//! The fully discrete scheme, Problem P_V^hk (5.1)–(5.5): for n = 1, …, N, given u_{n−1} and
+//! β_{n−1}, solve the velocity step (5.1) and the damage step (5.2) — concurrently, since both
+//! depend only on step n−1 — then update u_n = u_{n−1} + k v_n (5.4)–(5.5). Initial data are
+//! interpolated, u_0 = Π^h u0, β_0 = Π^h β0 (5.3), (5.30).
+
+use crate::assembly::{add_facet_integrals, assemble_cell_vector, field_strain, physical_gradients};
+use crate::contact::{ContactNodes, ContactStatus};
+use crate::damage::{DamageOperator, DamageSolution};
+use crate::laws::{ContactLaw, DamageSource, Elasticity, Viscosity};
+use crate::mesh::{BoundaryPart, Mesh};
+use crate::obstacle::{BoxQpSettings, BoxQpStats};
+use crate::quadrature::QuadratureRule;
+use crate::space::{LagrangeSpace, Tabulation};
+use crate::velocity::{VelocityData, VelocityOperator, VelocitySettings, VelocitySolution, VelocityStats};
+use crate::{Error, Result};
+use nalgebra::SVector;
+use std::sync::Arc;
+
+/// A vector field of (x, t): f0.
+pub type VectorField<const D: usize> = Arc<dyn Fn(&[f64; D], f64) -> [f64; D] + Send + Sync>;
+/// A vector boundary datum of (x, t, outward normal): f2, f3.
+pub type BoundaryVectorField<const D: usize> = Arc<dyn Fn(&[f64; D], f64, &[f64; D]) -> [f64; D] + Send + Sync>;
+/// A scalar field of (x, t): q.
+pub type ScalarField<const D: usize> = Arc<dyn Fn(&[f64; D], f64) -> f64 + Send + Sync>;
+/// A scalar boundary datum of (x, t, outward normal): the damage flux κ ∂β/∂ν.
+pub type BoundaryScalarField<const D: usize> = Arc<dyn Fn(&[f64; D], f64, &[f64; D]) -> f64 + Send + Sync>;
+
+/// The constitutive laws of Problem P (§2) and the damage diffusion κ of (2.2).
+#[derive(Clone)]
+pub struct Model<const D: usize> {
+    /// 𝒜, acting on ε(u̇).
+    pub viscosity: Arc<dyn Viscosity<D>>,
+    /// G(ε(u), β).
+    pub elasticity: Arc<dyn Elasticity<D>>,
+    /// φ(ε(u), β).
+    pub damage_source: Arc<dyn DamageSource<D>>,
+    /// p_ν and p_τ.
+    pub contact: Arc<dyn ContactLaw>,
+    /// κ > 0.
+    pub damage_diffusion: f64,
+}
+
+/// Loads, gap and initial data. Everything but the gap and the initial data is optional.
+#[derive(Clone)]
+pub struct Data<const D: usize> {
+    /// Body force f0 (2.3).
+    pub body_force: Option<VectorField<D>>,
+    /// Traction f2 on Γ2 (2.6).
+    pub traction: Option<BoundaryVectorField<D>>,
+    /// Extra traction f3 on Γ3 (used by manufactured solutions, SPEC §4): adds ∫_Γ3 f3·w.
+    pub contact_traction: Option<BoundaryVectorField<D>>,
+    /// Extra damage supply q added to φ (manufactured solutions).
+    pub damage_supply: Option<ScalarField<D>>,
+    /// Damage flux κ ∂β/∂ν on Γ (zero in (2.4); nonzero for manufactured solutions).
+    pub damage_flux: Option<BoundaryScalarField<D>>,
+    /// Gap g ≥ 0 on Γ3, measured along the outward normal.
+    pub gap: Arc<dyn Fn(&[f64; D]) -> f64 + Send + Sync>,
+    /// u0 (must vanish on Γ1).
+    pub initial_displacement: Arc<dyn Fn(&[f64; D]) -> [f64; D] + Send + Sync>,
+    /// β0 with values in [0, 1].
+    pub initial_damage: Arc<dyn Fn(&[f64; D]) -> f64 + Send + Sync>,
+}
+
+/// Solver settings of both steps.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct SchemeSettings {
+    /// Velocity step (5.1).
+    pub velocity: VelocitySettings,
+    /// Damage step (5.2).
+    pub damage: BoxQpSettings,
+}
+
+/// Problem P_V^hk: mesh, degree l, model, data, T and N.
+#[derive(Clone)]
+pub struct Problem<const D: usize> {
+    /// The mesh 𝒯^h.
+    pub mesh: Arc<Mesh<D>>,
+    /// Polynomial degree l ∈ {1, 2} of X^h.
+    pub degree: usize,
+    /// Constitutive laws.
+    pub model: Model<D>,
+    /// Loads and initial data.
+    pub data: Data<D>,
+    /// Final time T > 0.
+    pub final_time: f64,
+    /// Number of time steps N ≥ 1 (k = T/N).
+    pub steps: usize,
+    /// Solver settings.
+    pub settings: SchemeSettings,
+}
+
+/// The discrete state after step n.
+#[derive(Debug, Clone)]
+pub struct State {
+    /// Step index n.
+    pub step: usize,
+    /// t_n = n k.
+    pub time: f64,
+    /// u_n, Cartesian node-major.
+    pub displacement: Vec<f64>,
+    /// v_n (zero for n = 0).
+    pub velocity: Vec<f64>,
+    /// β_n, nodal.
+    pub damage: Vec<f64>,
+}
+
+/// What the observer sees after each step.
+pub struct StepReport<'a, const D: usize> {
+    /// The state after the step.
+    pub state: &'a State,
+    /// The finite element space of every field.
+    pub space: &'a LagrangeSpace<D>,
+    /// The contact nodes (order of `contact_status` and `multipliers`).
+    pub contact: &'a ContactNodes<D>,
+    /// Status of each contact node in the velocity step.
+    pub contact_status: &'a [ContactStatus],
+    /// Normal pressure p_ν per contact node used in the step.
+    pub normal_pressure: &'a [f64],
+    /// Friction bound p_τ per contact node used in the step.
+    pub friction_bound: &'a [f64],
+    /// Friction multipliers (D−1 per contact node).
+    pub multipliers: &'a [f64],
+    /// Velocity step statistics.
+    pub velocity_stats: &'a VelocityStats,
+    /// Damage step statistics.
+    pub damage_stats: &'a BoxQpStats,
+}
+
+/// Totals over a run.
+#[derive(Debug, Clone, Default)]
+pub struct RunSummary {
+    /// Steps done.
+    pub steps: usize,
+    /// Largest KKT residual of a velocity step.
+    pub max_velocity_kkt: f64,
+    /// Largest KKT residual of a damage step.
+    pub max_damage_kkt: f64,
+    /// Newton iterations of all velocity steps.
+    pub velocity_newton_iterations: usize,
+    /// Semismooth Newton iterations of the friction problems.
+    pub friction_iterations: usize,
+    /// Active-set iterations of all damage steps.
+    pub damage_iterations: usize,
+    /// Numeric factorizations of the velocity operator.
+    pub velocity_factorizations: usize,
+    /// Numeric factorizations in the damage steps.
+    pub damage_factorizations: usize,
+    /// Steps in which some contact node was in each state (separated, stick, slip).
+    pub steps_with_status: [usize; 3],
+    /// Steps in which the lower / upper damage bound was active at some node.
+    pub steps_with_damage_bound: [usize; 2],
+}
+
+/// A running simulation of Problem P_V^hk.
+pub struct Simulation<const D: usize> {
+    problem: Problem<D>,
+    space: Arc<LagrangeSpace<D>>,
+    contact: Arc<ContactNodes<D>>,
+    velocity: VelocityOperator<D>,
+    damage: DamageOperator<D>,
+    load_tabulation: Tabulation<D>,
+    gap: Vec<f64>,
+    state: State,
+}
+
+impl<const D: usize> Simulation<D> {
+    /// Validates the problem, builds the spaces and operators (symbolic analyses), and sets the
+    /// initial state u_0 = Π^h u0, β_0 = Π^h β0.
+    pub fn new(problem: Problem<D>) -> Result<Self> {
+        let model = &problem.model;
+        model.viscosity.validate()?;
+        model.elasticity.validate()?;
+        model.damage_source.validate()?;
+        model.contact.validate()?;
+        if !(problem.final_time.is_finite() && problem.final_time > 0.0) {
+            return Err(Error::parameter("final_time", problem.final_time, "T must be > 0"));
+        }
+        if problem.steps == 0 {
+            return Err(Error::parameter("steps", 0.0, "the number of time steps N must be ≥ 1"));
+        }
+        let space = Arc::new(LagrangeSpace::new(problem.mesh.clone(), problem.degree)?);
+        let contact = Arc::new(ContactNodes::new(&space)?);
+        let velocity = VelocityOperator::new(space.clone(), model.viscosity.clone(), contact.clone())?;
+        let time_step = problem.final_time / problem.steps as f64;
+        let damage = DamageOperator::new(space.clone(), model.damage_diffusion, time_step, problem.settings.damage)?;
+        let load_tabulation =
+            Tabulation::cell_rule(space.element(), &QuadratureRule::<D>::simplex(2 * space.degree() + 2));
+        let gap: Vec<f64> = contact.nodes.iter().map(|&node| (problem.data.gap)(&space.node(node))).collect();
+        if let Some(k) = gap.iter().position(|g| !g.is_finite() || *g < 0.0) {
+            return Err(Error::parameter(
+                format!("gap at contact node {} {:?}", contact.nodes[k], space.node(contact.nodes[k])),
+                gap[k],
+                "g must be finite and ≥ 0",
+            ));
+        }
+        let displacement = space.interpolate_vector(|x| (problem.data.initial_displacement)(x));
+        for node in space.boundary_nodes(BoundaryPart::Dirichlet) {
+            let u = &displacement[node * D..node * D + D];
+            if u.iter().any(|v| v.abs() > 1e-12) {
+                return Err(Error::parameter(
+                    format!("initial_displacement at clamped node {node} {:?}", space.node(node)),
+                    u.iter().fold(0.0f64, |m, v| m.max(v.abs())),
+                    "u0 must vanish on Γ1 (2.5)",
+                ));
+            }
+        }
+        let damage_values = space.interpolate_scalar(|x| (problem.data.initial_damage)(x));
+        if let Some(i) = damage_values.iter().position(|b| !(0.0..=1.0).contains(b)) {
+            return Err(Error::parameter(
+                format!("initial_damage at node {i} {:?}", space.node(i)),
+                damage_values[i],
+                "β0 must take values in [0, 1]",
+            ));
+        }
+        if let Some(i) = displacement.iter().position(|v| !v.is_finite()) {
+            return Err(Error::NonFinite(format!("initial displacement at node {}", i / D)));
+        }
+        let state = State {
+            step: 0,
+            time: 0.0,
+            velocity: vec![0.0; displacement.len()],
+            displacement,
+            damage: damage_values,
+        };
+        Ok(Self {
+            problem,
+            space,
+            contact,
+            velocity,
+            damage,
+            load_tabulation,
+            gap,
+            state,
+        })
+    }
+
+    /// The current state.
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+
+    /// Replaces the current state (restart from saved fields).
+    pub fn set_state(&mut self, state: State) -> Result<()> {
+        let n = self.space.num_nodes();
+        if state.displacement.len() != n * D || state.velocity.len() != n * D || state.damage.len() != n {
+            return Err(Error::InvalidInput("state does not match the finite element space".into()));
+        }
+        self.state = state;
+        Ok(())
+    }
+
+    /// The finite element space.
+    pub fn space(&self) -> &Arc<LagrangeSpace<D>> {
+        &self.space
+    }
+
+    /// The contact nodes.
+    pub fn contact(&self) -> &Arc<ContactNodes<D>> {
+        &self.contact
+    }
+
+    /// The velocity operator (sizes, for reporting).
+    pub fn velocity_operator(&self) -> &VelocityOperator<D> {
+        &self.velocity
+    }
+
+    /// Time step k = T/N.
+    pub fn time_step(&self) -> f64 {
+        self.problem.final_time / self.problem.steps as f64
+    }
+
+    /// Number of steps N.
+    pub fn steps(&self) -> usize {
+        self.problem.steps
+    }
+
+    /// Loads of step n at t_n from the state n−1: the velocity load (Cartesian, node-major) and
+    /// the damage source ⟨φ(ε(u_{n−1}), β_{n−1}) + q(t_n), φ_a⟩ + ∫_Γ κ∂β/∂ν φ_a.
+    pub fn step_loads(&self, time: f64) -> (Vec<f64>, Vec<f64>) {
+        let data = &self.problem.data;
+        let model = &self.problem.model;
+        let space = &*self.space;
+        let tab = &self.load_tabulation;
+        let n = tab.nodes;
+        let displacement = &self.state.displacement;
+        let damage = &self.state.damage;
+        let combined = assemble_cell_vector(space, D + 1, |cell, out| {
+            out.fill(0.0);
+            let geometry = space.geometry(cell);
+            let nodes = space.cell_nodes(cell);
+            let mut grads = [SVector::<f64, D>::zeros(); 10];
+            for q in 0..tab.len() {
+                physical_gradients(geometry, tab, q, &mut grads);
+                let values = &tab.values[q * n..(q + 1) * n];
+                let strain = field_strain(nodes, &grads[..n], displacement);
+                let beta: f64 = nodes.iter().zip(values).map(|(&node, v)| damage[node] * v).sum();
+                let weight = tab.weights[q] * geometry.det;
+                let x = geometry.point(&tab.points[q]);
+                let stress = model.elasticity.stress(&strain, beta);
+                let force = data.body_force.as_ref().map(|f| f(&x, time));
+                let mut source = model.damage_source.source(&strain, beta);
+                if let Some(supply) = &data.damage_supply {
+                    source += supply(&x, time);
+                }
+                for a in 0..n {
+                    let internal = stress * grads[a];
+                    for i in 0..D {
+                        let mut value = -internal[i];
+                        if let Some(f) = &force {
+                            value += f[i] * values[a];
+                        }
+                        out[a * (D + 1) + i] += weight * value;
+                    }
+                    out[a * (D + 1) + D] += weight * source * values[a];
+                }
+            }
+        });
+        let mesh = space.mesh();
+        let mut velocity_load = vec![0.0; space.num_nodes() * D];
+        let mut damage_source = vec![0.0; space.num_nodes()];
+        for node in 0..space.num_nodes() {
+            velocity_load[node * D..node * D + D].copy_from_slice(&combined[node * (D + 1)..node * (D + 1) + D]);
+            damage_source[node] = combined[node * (D + 1) + D];
+        }
+        let degree = 2 * space.degree() + 2;
+        if let Some(traction) = &data.traction {
+            add_facet_integrals(
+                space,
+                degree,
+                D,
+                |f| mesh.facet_part(f) == BoundaryPart::Neumann,
+                |x, normal, out| out.copy_from_slice(&traction(x, time, normal)),
+                &mut velocity_load,
+            );
+        }
+        if let Some(traction) = &data.contact_traction {
+            add_facet_integrals(
+                space,
+                degree,
+                D,
+                |f| mesh.facet_part(f) == BoundaryPart::Contact,
+                |x, normal, out| out.copy_from_slice(&traction(x, time, normal)),
+                &mut velocity_load,
+            );
+        }
+        if let Some(flux) = &data.damage_flux {
+            add_facet_integrals(space, degree, 1, |_| true, |x, normal, out| out[0] = flux(x, time, normal), &mut damage_source);
+        }
+        (velocity_load, damage_source)
+    }
+
+    /// Normal pressure and friction bound at the contact nodes from u_{n−1}.
+    fn contact_bounds(&self) -> (Vec<f64>, Vec<f64>) {
+        let law = &self.problem.model.contact;
+        self.contact
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(k, &node)| {
+                let u = SVector::<f64, D>::from_column_slice(&self.state.displacement[node * D..node * D + D]);
+                let penetration = u.dot(&self.contact.normal(k)) - self.gap[k];
+                (law.normal_pressure(penetration), law.friction_bound(penetration))
+            })
+            .unzip()
+    }
+
+    /// One step of the scheme: (5.1) and (5.2) concurrently, then (5.4)–(5.5).
+    pub fn step(&mut self) -> Result<(VelocitySolution, DamageSolution, Vec<f64>, Vec<f64>)> {
+        let n = self.state.step + 1;
+        let time = n as f64 * self.time_step();
+        let (velocity_load, damage_source) = self.step_loads(time);
+        let (normal_pressure, friction_bound) = self.contact_bounds();
+        let data = VelocityData {
+            load: &velocity_load,
+            normal_pressure: &normal_pressure,
+            friction_bound: &friction_bound,
+        };
+        let settings = self.problem.settings.velocity;
+        let previous_velocity = &self.state.velocity;
+        let previous_damage = &self.state.damage;
+        let velocity_op = &mut self.velocity;
+        let damage_op = &mut self.damage;
+        let (velocity, damage) = rayon::join(
+            || velocity_op.solve(&data, previous_velocity, &settings),
+            || damage_op.solve(&damage_source, previous_damage),
+        );
+        let velocity = velocity?;
+        let damage = damage?;
+        let k = self.time_step();
+        for (u, v) in self.state.displacement.iter_mut().zip(&velocity.velocity) {
+            *u += k * v;
+        }
+        self.state.velocity.clone_from(&velocity.velocity);
+        self.state.damage.clone_from(&damage.damage);
+        self.state.step = n;
+        self.state.time = time;
+        Ok((velocity, damage, normal_pressure, friction_bound))
+    }
+
+    /// Runs the remaining steps up to N, calling `observer` after each.
+    pub fn run(&mut self, mut observer: impl FnMut(&StepReport<'_, D>) -> Result<()>) -> Result<RunSummary> {
+        let mut summary = RunSummary::default();
+        while self.state.step < self.problem.steps {
+            let (velocity, damage, normal_pressure, friction_bound) = self.step()?;
+            summary.steps += 1;
+            summary.max_velocity_kkt = summary.max_velocity_kkt.max(velocity.stats.kkt_residual);
+            summary.max_damage_kkt = summary.max_damage_kkt.max(damage.stats.kkt_residual);
+            summary.velocity_newton_iterations += velocity.stats.newton_iterations;
+            summary.friction_iterations += velocity.stats.friction_iterations;
+            summary.damage_iterations += damage.stats.iterations;
+            summary.velocity_factorizations += velocity.stats.factorizations;
+            summary.damage_factorizations += damage.stats.factorizations;
+            for (slot, status) in [ContactStatus::Separated, ContactStatus::Stick, ContactStatus::Slip].iter().enumerate() {
+                if velocity.status.contains(status) {
+                    summary.steps_with_status[slot] += 1;
+                }
+            }
+            if damage.stats.lower_active > 0 {
+                summary.steps_with_damage_bound[0] += 1;
+            }
+            if damage.stats.upper_active > 0 {
+                summary.steps_with_damage_bound[1] += 1;
+            }
+            observer(&StepReport {
+                state: &self.state,
+                space: &self.space,
+                contact: &self.contact,
+                contact_status: &velocity.status,
+                normal_pressure: &normal_pressure,
+                friction_bound: &friction_bound,
+                multipliers: &velocity.multipliers,
+                velocity_stats: &velocity.stats,
+                damage_stats: &damage.stats,
+            })?;
+        }
+        Ok(summary)
+    }
+}

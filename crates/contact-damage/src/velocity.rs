@@ -1,0 +1,591 @@
+//! The velocity step (5.1): a Tresca-type variational inequality with the known normal load
+//! p_ν(u_{n−1,ν} − g) and the known friction bound s = p_τ(u_{n−1,ν} − g).
+//!
+//! With the nodal rule of [`crate::contact`], (5.1) is the minimization of
+//!
+//! J(v) = Σ_K ∫_K Φ(ε(v)) dx − ⟨F, v⟩ + Σ_a w_a |v_τ(a)|,   w_a = ω_a s_a,
+//!
+//! (Φ the potential of 𝒜, F the load of the step). Unknowns are nodal velocities, expressed in
+//! the frame (ν_a, t_1, …) at contact nodes; clamped nodes (Γ1) keep identity rows.
+//!
+//! **Algorithm.** Proximal Newton: at an iterate v_k, the smooth part is replaced by its
+//! second-order model with the tangent matrix H_k; the nonsmooth model problem is condensed
+//! exactly onto the tangential contact unknowns c with the Schur complement
+//! S = (E_cᵀ H_k^{-1} E_c)^{-1} and solved exactly by [`crate::friction`]; the step is accepted
+//! by an Armijo line search on J. For a linear 𝒜 the model is J itself, so one iteration
+//! solves (5.1) exactly, and H, its Cholesky factor and S are computed once per run and reused
+//! in every time step (two sparse solves and one small dense problem per step).
+
+use crate::assembly::viscous_element_matrix;
+use crate::contact::{ContactNodes, ContactStatus};
+use crate::friction::{CondensedFriction, FrictionSettings};
+use crate::laws::Viscosity;
+use crate::linalg::{multiply, CholeskySolver, SparsityPattern};
+use crate::mesh::BoundaryPart;
+use crate::quadrature::QuadratureRule;
+use crate::space::{LagrangeSpace, Tabulation};
+use crate::{Error, Result};
+use faer::sparse::{Pair, SparseColMat};
+use faer::Mat;
+use nalgebra::SVector;
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// Settings of the velocity step solver.
+#[derive(Debug, Clone, Copy)]
+pub struct VelocitySettings {
+    /// Stop when the relative KKT residual is below this value.
+    pub tolerance: f64,
+    /// Maximal number of (proximal) Newton iterations.
+    pub max_newton: usize,
+    /// Settings of the condensed friction solver.
+    pub friction: FrictionSettings,
+}
+
+impl Default for VelocitySettings {
+    fn default() -> Self {
+        Self {
+            tolerance: 1e-10,
+            max_newton: 50,
+            friction: FrictionSettings::default(),
+        }
+    }
+}
+
+/// Statistics of one velocity step.
+#[derive(Debug, Clone, Default)]
+pub struct VelocityStats {
+    /// Outer (proximal) Newton iterations; 1 for a linear 𝒜.
+    pub newton_iterations: usize,
+    /// Semismooth Newton iterations of the condensed friction problems.
+    pub friction_iterations: usize,
+    /// Proximal-gradient iterations of the condensed friction problems (globalization).
+    pub friction_gradient_iterations: usize,
+    /// Numeric Cholesky factorizations done in this step.
+    pub factorizations: usize,
+    /// Relative KKT residual of (5.1) on the full system, see [`VelocityOperator::kkt_residual`].
+    pub kkt_residual: f64,
+}
+
+/// The data of one velocity step in Cartesian node-major form.
+pub struct VelocityData<'a> {
+    /// Load vector ⟨f_n, φ_a e_i⟩ − ⟨G(ε(u_{n−1}), β_{n−1}), ε(φ_a e_i)⟩ (normal compliance excluded).
+    pub load: &'a [f64],
+    /// Normal pressure p_ν(u_{n−1,ν}(a) − g(a)) per contact node.
+    pub normal_pressure: &'a [f64],
+    /// Friction bound s_a = p_τ(u_{n−1,ν}(a) − g(a)) per contact node.
+    pub friction_bound: &'a [f64],
+}
+
+/// Result of a velocity step.
+#[derive(Debug, Clone)]
+pub struct VelocitySolution {
+    /// Nodal velocities, Cartesian, node-major.
+    pub velocity: Vec<f64>,
+    /// Friction multipliers λ_a (|λ_a| ≤ 1) per contact node, D−1 tangential components;
+    /// the friction traction at node a is −s_a λ_a (in the tangent frame).
+    pub multipliers: Vec<f64>,
+    /// Status of each contact node.
+    pub status: Vec<ContactStatus>,
+    /// Solver statistics.
+    pub stats: VelocityStats,
+}
+
+/// Linear algebra of the velocity step for one mesh, law and contact boundary: the assembly
+/// pattern (with frames and clamped rows), the Cholesky solver (symbolic analysis once) and
+/// the condensed Schur complement on the tangential contact unknowns.
+pub struct VelocityOperator<const D: usize> {
+    space: Arc<LagrangeSpace<D>>,
+    law: Arc<dyn Viscosity<D>>,
+    contact: Arc<ContactNodes<D>>,
+    clamped: Vec<bool>,
+    pattern: SparsityPattern,
+    tabulation: Tabulation<D>,
+    solver: CholeskySolver,
+    matrix: SparseColMat<usize, f64>,
+    /// System indices of the tangential contact unknowns, (D−1) per contact node.
+    tangential: Vec<usize>,
+    /// S = (E_cᵀ H^{-1} E_c)^{-1} for the current factorization.
+    schur: Mat<f64>,
+    /// The velocity at which H was last assembled (nonlinear 𝒜).
+    linearized_at: Option<Vec<f64>>,
+}
+
+impl<const D: usize> VelocityOperator<D> {
+    /// Builds the pattern and does the symbolic analysis (expensive, once per mesh and law).
+    pub fn new(space: Arc<LagrangeSpace<D>>, law: Arc<dyn Viscosity<D>>, contact: Arc<ContactNodes<D>>) -> Result<Self> {
+        law.validate()?;
+        let n_nodes = space.num_nodes();
+        let mut clamped = vec![false; n_nodes];
+        for node in space.boundary_nodes(BoundaryPart::Dirichlet) {
+            clamped[node] = true;
+        }
+        let size = n_nodes * D;
+        let n_local = space.nodes_per_cell() * D;
+        let n_cells = space.mesh().num_cells();
+        let clamped_count = clamped.iter().filter(|&&c| c).count();
+        let mut pairs = Vec::with_capacity(n_cells * n_local * n_local + clamped_count * D);
+        let mut dofs = vec![0isize; n_local];
+        for cell in 0..n_cells {
+            for (a, &node) in space.cell_nodes(cell).iter().enumerate() {
+                for i in 0..D {
+                    dofs[a * D + i] = if clamped[node] { -1 } else { (node * D + i) as isize };
+                }
+            }
+            for &row in &dofs {
+                for &col in &dofs {
+                    pairs.push(Pair::new(row, col));
+                }
+            }
+        }
+        for (node, _) in clamped.iter().enumerate().filter(|(_, &c)| c) {
+            for i in 0..D {
+                let dof = (node * D + i) as isize;
+                pairs.push(Pair::new(dof, dof));
+            }
+        }
+        let pattern = SparsityPattern::from_pairs(size, &pairs)?;
+        drop(pairs);
+        let degree = if law.is_linear() { 2 * space.degree() - 2 } else { 2 * space.degree() };
+        let tabulation = Tabulation::cell_rule(space.element(), &QuadratureRule::<D>::simplex(degree));
+        let tangential = contact
+            .nodes
+            .iter()
+            .flat_map(|&node| (1..D).map(move |i| node * D + i))
+            .collect();
+        let mut operator = Self {
+            space,
+            law,
+            contact,
+            clamped,
+            pattern,
+            tabulation,
+            solver: CholeskySolver::analyse(&SparseColMat::<usize, f64>::try_new_from_triplets(0, 0, &[]).map_err(|e| {
+                Error::LinearAlgebra {
+                    context: "velocity operator".into(),
+                    message: format!("{e:?}"),
+                }
+            })?, "velocity operator")?,
+            matrix: SparseColMat::<usize, f64>::try_new_from_triplets(0, 0, &[]).map_err(|e| Error::LinearAlgebra {
+                context: "velocity operator".into(),
+                message: format!("{e:?}"),
+            })?,
+            tangential,
+            schur: Mat::zeros(0, 0),
+            linearized_at: None,
+        };
+        operator.matrix = operator.assemble(None)?;
+        operator.solver = CholeskySolver::analyse(&operator.matrix, "velocity operator (5.1)")?;
+        Ok(operator)
+    }
+
+    /// The finite element space.
+    pub fn space(&self) -> &Arc<LagrangeSpace<D>> {
+        &self.space
+    }
+
+    /// The contact nodes.
+    pub fn contact(&self) -> &Arc<ContactNodes<D>> {
+        &self.contact
+    }
+
+    /// Number of unknowns (including clamped ones, which carry identity rows).
+    pub fn size(&self) -> usize {
+        self.pattern.size()
+    }
+
+    /// Number of stored nonzeros of the operator.
+    pub fn nnz(&self) -> usize {
+        self.pattern.nnz()
+    }
+
+    /// Assembles the (linearized) operator in the system frame, in parallel.
+    pub fn assemble(&self, velocity_system: Option<&[f64]>) -> Result<SparseColMat<usize, f64>> {
+        let cartesian = velocity_system.map(|v| self.to_cartesian(v));
+        let n_local = self.space.nodes_per_cell() * D;
+        let block = n_local * n_local;
+        let n_cells = self.space.mesh().num_cells();
+        let mut values = vec![0.0; self.pattern.value_count()];
+        let (cell_values, clamped_values) = values.split_at_mut(n_cells * block);
+        cell_values.par_chunks_mut(block).enumerate().for_each(|(cell, out)| {
+            viscous_element_matrix(
+                self.law.as_ref(),
+                &self.space,
+                &self.tabulation,
+                cell,
+                cartesian.as_deref(),
+                out,
+            );
+            self.rotate_element_matrix(cell, out);
+        });
+        clamped_values.fill(1.0);
+        self.pattern.matrix(&values)
+    }
+
+    /// K ← Qᵀ K Q for the frames of the contact nodes of the cell.
+    fn rotate_element_matrix(&self, cell: usize, out: &mut [f64]) {
+        let nodes = self.space.cell_nodes(cell);
+        let nd = nodes.len() * D;
+        for (a, &node) in nodes.iter().enumerate() {
+            let Some(k) = self.contact.index_of_node[node] else { continue };
+            let frame = &self.contact.frames[k];
+            // rows: K[(a,·), :] ← R_aᵀ K[(a,·), :]
+            for col in 0..nd {
+                let old: SVector<f64, D> = SVector::from_fn(|i, _| out[(a * D + i) * nd + col]);
+                let new = frame.transpose() * old;
+                for i in 0..D {
+                    out[(a * D + i) * nd + col] = new[i];
+                }
+            }
+            // columns: K[:, (a,·)] ← K[:, (a,·)] R_a
+            for row in 0..nd {
+                let old: SVector<f64, D> = SVector::from_fn(|i, _| out[row * nd + a * D + i]);
+                let new = frame.transpose() * old;
+                for i in 0..D {
+                    out[row * nd + a * D + i] = new[i];
+                }
+            }
+        }
+    }
+
+    /// Cartesian node-major vector → system frame (frames at contact nodes, zero on Γ1).
+    pub fn to_system(&self, cartesian: &[f64]) -> Vec<f64> {
+        let mut system = cartesian.to_vec();
+        for (k, &node) in self.contact.nodes.iter().enumerate() {
+            let local = self.contact.frames[k].transpose() * SVector::<f64, D>::from_column_slice(&cartesian[node * D..node * D + D]);
+            system[node * D..node * D + D].copy_from_slice(local.as_slice());
+        }
+        for (node, _) in self.clamped.iter().enumerate().filter(|(_, &c)| c) {
+            system[node * D..node * D + D].fill(0.0);
+        }
+        system
+    }
+
+    /// System frame → Cartesian node-major.
+    pub fn to_cartesian(&self, system: &[f64]) -> Vec<f64> {
+        let mut cartesian = system.to_vec();
+        for (k, &node) in self.contact.nodes.iter().enumerate() {
+            let global = self.contact.frames[k] * SVector::<f64, D>::from_column_slice(&system[node * D..node * D + D]);
+            cartesian[node * D..node * D + D].copy_from_slice(global.as_slice());
+        }
+        cartesian
+    }
+
+    /// Numeric factorization of the current matrix and the Schur complement on the tangential
+    /// contact unknowns: Z = E_cᵀ H^{-1} E_c (block solves), S = Z^{-1}.
+    fn factorize(&mut self) -> Result<()> {
+        self.solver.factorize(&self.matrix)?;
+        let m = self.tangential.len();
+        let n = self.size();
+        let mut inverse_block = Mat::<f64>::zeros(m, m);
+        const BLOCK: usize = 32;
+        let mut start = 0;
+        while start < m {
+            let width = BLOCK.min(m - start);
+            let mut rhs = Mat::<f64>::zeros(n, width);
+            for j in 0..width {
+                rhs[(self.tangential[start + j], j)] = 1.0;
+            }
+            self.solver.solve_block(rhs.as_mut())?;
+            for j in 0..width {
+                for (i, &dof) in self.tangential.iter().enumerate() {
+                    inverse_block[(i, start + j)] = rhs[(dof, j)];
+                }
+            }
+            start += width;
+        }
+        if m > 0 {
+            // symmetrize against round-off, then invert through a dense Cholesky factorization
+            let sym = Mat::<f64>::from_fn(m, m, |i, j| 0.5 * (inverse_block[(i, j)] + inverse_block[(j, i)]));
+            let llt = sym.llt(faer::Side::Lower).map_err(|e| Error::LinearAlgebra {
+                context: "condensed velocity operator E_cᵀ H⁻¹ E_c".into(),
+                message: format!("dense Cholesky failed: {e:?}"),
+            })?;
+            let inverse = faer::linalg::solvers::DenseSolveCore::inverse(&llt);
+            self.schur = Mat::<f64>::from_fn(m, m, |i, j| 0.5 * (inverse[(i, j)] + inverse[(j, i)]));
+        } else {
+            self.schur = Mat::zeros(0, 0);
+        }
+        Ok(())
+    }
+
+    /// Σ_K ∫ Φ(ε(v)) dx and the internal force vector ⟨𝒜ε(v), ε(φ_a e_i)⟩ in the system frame.
+    fn energy_and_force(&self, velocity_system: &[f64]) -> (f64, Vec<f64>) {
+        let cartesian = self.to_cartesian(velocity_system);
+        let n_local = self.space.nodes_per_cell() * D;
+        let n_cells = self.space.mesh().num_cells();
+        let tab = &self.tabulation;
+        let n = tab.nodes;
+        let mut locals = vec![0.0; n_cells * (n_local + 1)];
+        locals.par_chunks_mut(n_local + 1).enumerate().for_each(|(cell, out)| {
+            let geometry = self.space.geometry(cell);
+            let nodes = self.space.cell_nodes(cell);
+            let mut grads = [SVector::<f64, D>::zeros(); 10];
+            for q in 0..tab.len() {
+                crate::assembly::physical_gradients(geometry, tab, q, &mut grads);
+                let rate = crate::assembly::field_strain(nodes, &grads[..n], &cartesian);
+                let weight = tab.weights[q] * geometry.det;
+                out[n_local] += weight * self.law.potential(&rate);
+                let stress = self.law.stress(&rate) * weight;
+                for a in 0..n {
+                    let traction = stress * grads[a];
+                    for i in 0..D {
+                        out[a * D + i] += traction[i];
+                    }
+                }
+            }
+        });
+        let mut force = vec![0.0; self.size()];
+        let mut energy = 0.0;
+        for (cell, chunk) in locals.chunks(n_local + 1).enumerate() {
+            energy += chunk[n_local];
+            for (a, &node) in self.space.cell_nodes(cell).iter().enumerate() {
+                for i in 0..D {
+                    force[node * D + i] += chunk[a * D + i];
+                }
+            }
+        }
+        (energy, self.to_system(&force))
+    }
+
+    fn friction_weights(&self, friction_bound: &[f64]) -> Vec<f64> {
+        self.contact.weights.iter().zip(friction_bound).map(|(w, s)| w * s).collect()
+    }
+
+    fn friction_term(&self, weights: &[f64], velocity_system: &[f64]) -> f64 {
+        self.contact
+            .nodes
+            .iter()
+            .zip(weights)
+            .map(|(&node, w)| w * velocity_system[node * D + 1..node * D + D].iter().map(|t| t * t).sum::<f64>().sqrt())
+            .sum()
+    }
+
+    /// Relative KKT residual of (5.1) for (v, λ) on the full system:
+    /// max of ‖N(v) − F + E_c W λ‖_∞ / ‖F‖_∞ (stationarity), max_a (|λ_a| − 1)₊ (dual
+    /// feasibility) and max over slipping nodes of |λ_a − v_τ(a)/|v_τ(a)|| (complementarity);
+    /// stick nodes have v_τ(a) = 0 exactly.
+    pub fn kkt_residual(&self, load_system: &[f64], weights: &[f64], velocity_system: &[f64], multipliers: &[f64]) -> f64 {
+        let force = if self.law.is_linear() {
+            multiply(&self.matrix, velocity_system)
+        } else {
+            self.energy_and_force(velocity_system).1
+        };
+        let mut residual: Vec<f64> = force.iter().zip(load_system).map(|(n, f)| n - f).collect();
+        for (node, _) in self.clamped.iter().enumerate().filter(|(_, &c)| c) {
+            for i in 0..D {
+                residual[node * D + i] = velocity_system[node * D + i];
+            }
+        }
+        let g = D - 1;
+        let mut worst: f64 = 0.0;
+        for (k, &node) in self.contact.nodes.iter().enumerate() {
+            let lambda = &multipliers[k * g..(k + 1) * g];
+            for i in 0..g {
+                residual[node * D + 1 + i] += weights[k] * lambda[i];
+            }
+            let norm = lambda.iter().map(|l| l * l).sum::<f64>().sqrt();
+            worst = worst.max(norm - 1.0);
+            let tangential: Vec<f64> = (0..g).map(|i| velocity_system[node * D + 1 + i]).collect();
+            let speed = tangential.iter().map(|t| t * t).sum::<f64>().sqrt();
+            if speed > 0.0 && weights[k] > 0.0 {
+                for i in 0..g {
+                    worst = worst.max((lambda[i] - tangential[i] / speed).abs());
+                }
+            }
+        }
+        let scale = load_system.iter().fold(0.0f64, |m, f| m.max(f.abs())).max(f64::MIN_POSITIVE);
+        let stationarity = residual.iter().fold(0.0f64, |m, r| m.max(r.abs())) / scale;
+        stationarity.max(worst)
+    }
+
+    /// Solves the velocity step (5.1) for the given data; `start` (Cartesian) is the initial
+    /// guess of the outer Newton iteration (ignored for a linear 𝒜).
+    pub fn solve(&mut self, data: &VelocityData<'_>, start: &[f64], settings: &VelocitySettings) -> Result<VelocitySolution> {
+        let k_count = self.contact.len();
+        let size = self.size();
+        if data.load.len() != size || data.normal_pressure.len() != k_count || data.friction_bound.len() != k_count {
+            return Err(Error::InvalidInput(format!(
+                "velocity step data sizes: load {} (expected {size}), normal pressure {} and friction bound {} (expected {k_count})",
+                data.load.len(),
+                data.normal_pressure.len(),
+                data.friction_bound.len()
+            )));
+        }
+        if let Some(i) = data.load.iter().position(|v| !v.is_finite()) {
+            return Err(Error::NonFinite(format!("velocity step load vector at dof {i} (node {}, component {})", i / D, i % D)));
+        }
+        for (name, values) in [("normal pressure", data.normal_pressure), ("friction bound", data.friction_bound)] {
+            if let Some(k) = values.iter().position(|v| !v.is_finite() || *v < 0.0) {
+                return Err(Error::NonFinite(format!(
+                    "{name} {} at contact node {} ({:?}) must be finite and ≥ 0",
+                    values[k],
+                    self.contact.nodes[k],
+                    self.space.node(self.contact.nodes[k])
+                )));
+            }
+        }
+        // F in the system frame, with the normal compliance load −ω_a p_ν on the normal unknown.
+        let mut load = self.to_system(data.load);
+        for (k, &node) in self.contact.nodes.iter().enumerate() {
+            load[node * D] -= self.contact.weights[k] * data.normal_pressure[k];
+        }
+        let weights = self.friction_weights(data.friction_bound);
+        let mut stats = VelocityStats::default();
+        let g = D - 1;
+        let mut multipliers = vec![0.0; k_count * g];
+        let linear = self.law.is_linear();
+        let mut velocity = self.to_system(start);
+        let mut history = Vec::new();
+        loop {
+            stats.newton_iterations += 1;
+            // the model: H (assembled at the current iterate for a nonlinear law) and its rhs
+            if !linear {
+                let needs = self.linearized_at.as_deref() != Some(velocity.as_slice());
+                if needs {
+                    self.matrix = self.assemble(Some(&velocity))?;
+                    self.factorize()?;
+                    stats.factorizations += 1;
+                    self.linearized_at = Some(velocity.clone());
+                }
+            } else if !self.solver.is_factorized() {
+                self.factorize()?;
+                stats.factorizations += 1;
+            }
+            let model_rhs = if linear {
+                load.clone()
+            } else {
+                let (_, force) = self.energy_and_force(&velocity);
+                let hv = multiply(&self.matrix, &velocity);
+                hv.iter().zip(&force).zip(&load).map(|((h, n), f)| h - (n - f)).collect()
+            };
+            let trial = self.solve_model(&model_rhs, &weights, &velocity, &mut multipliers, settings, &mut stats)?;
+            if linear {
+                velocity = trial;
+                stats.kkt_residual = self.kkt_residual(&load, &weights, &velocity, &multipliers);
+                history.push(stats.kkt_residual);
+                if stats.kkt_residual <= settings.tolerance {
+                    break;
+                }
+                return Err(Error::NoConvergence {
+                    solver: "velocity step (5.1), linear viscosity",
+                    iterations: 1,
+                    residual: stats.kkt_residual,
+                    tolerance: settings.tolerance,
+                    history: crate::error::History(history),
+                });
+            }
+            // Armijo line search on J along v + α (trial − v)
+            let (energy, force) = self.energy_and_force(&velocity);
+            let objective = |v: &[f64], energy: f64| energy - dot(&load, v) + self.friction_term(&weights, v);
+            let current = objective(&velocity, energy);
+            let direction: Vec<f64> = trial.iter().zip(&velocity).map(|(t, v)| t - v).collect();
+            let predicted = dot(&force, &direction) - dot(&load, &direction) + self.friction_term(&weights, &trial)
+                - self.friction_term(&weights, &velocity);
+            let mut step = 1.0;
+            let mut accepted = None;
+            for _ in 0..30 {
+                let candidate: Vec<f64> = velocity.iter().zip(&direction).map(|(v, d)| v + step * d).collect();
+                let (candidate_energy, _) = self.energy_and_force(&candidate);
+                if objective(&candidate, candidate_energy) <= current + 1e-4 * step * predicted.min(0.0) + 1e-15 * current.abs() {
+                    accepted = Some(candidate);
+                    break;
+                }
+                step *= 0.5;
+            }
+            let Some(next) = accepted else {
+                return Err(Error::NoConvergence {
+                    solver: "velocity step (5.1): line search",
+                    iterations: stats.newton_iterations,
+                    residual: *history.last().unwrap_or(&f64::INFINITY),
+                    tolerance: settings.tolerance,
+                    history: crate::error::History(history),
+                });
+            };
+            velocity = next;
+            stats.kkt_residual = self.kkt_residual(&load, &weights, &velocity, &multipliers);
+            history.push(stats.kkt_residual);
+            if stats.kkt_residual <= settings.tolerance && step == 1.0 {
+                break;
+            }
+            if stats.newton_iterations >= settings.max_newton {
+                return Err(Error::NoConvergence {
+                    solver: "velocity step (5.1), proximal Newton",
+                    iterations: stats.newton_iterations,
+                    residual: stats.kkt_residual,
+                    tolerance: settings.tolerance,
+                    history: crate::error::History(history),
+                });
+            }
+        }
+        let status = self
+            .contact
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(k, &node)| {
+                if data.normal_pressure[k] <= 0.0 {
+                    ContactStatus::Separated
+                } else if weights[k] > 0.0 && (1..D).all(|i| velocity[node * D + i] == 0.0) {
+                    ContactStatus::Stick
+                } else {
+                    ContactStatus::Slip
+                }
+            })
+            .collect();
+        Ok(VelocitySolution {
+            velocity: self.to_cartesian(&velocity),
+            multipliers,
+            status,
+            stats,
+        })
+    }
+
+    /// Exact solution of the model problem min ½ yᵀHy − bᵀy + Σ w_a |y_τ(a)| by condensation
+    /// onto the tangential contact unknowns.
+    fn solve_model(
+        &self,
+        rhs: &[f64],
+        weights: &[f64],
+        start: &[f64],
+        multipliers: &mut [f64],
+        settings: &VelocitySettings,
+        stats: &mut VelocityStats,
+    ) -> Result<Vec<f64>> {
+        let free = self.solver.solve(rhs)?;
+        if self.tangential.is_empty() {
+            return Ok(free);
+        }
+        // condensed rhs r_c = S (H^{-1} b)_c
+        let m = self.tangential.len();
+        let free_c = Mat::<f64>::from_fn(m, 1, |i, _| free[self.tangential[i]]);
+        let reduced_rhs_mat = &self.schur * &free_c;
+        let reduced_rhs: Vec<f64> = (0..m).map(|i| reduced_rhs_mat[(i, 0)]).collect();
+        let mut x: Vec<f64> = self.tangential.iter().map(|&dof| start[dof]).collect();
+        let problem = CondensedFriction {
+            matrix: self.schur.as_ref(),
+            rhs: &reduced_rhs,
+            weights,
+            group_size: D - 1,
+        };
+        let friction = problem.solve(&mut x, multipliers, &settings.friction)?;
+        stats.friction_iterations += friction.newton_iterations;
+        stats.friction_gradient_iterations += friction.gradient_iterations;
+        // y = H^{-1}(b − E_c W λ)
+        let mut corrected = rhs.to_vec();
+        let g = D - 1;
+        for (i, &dof) in self.tangential.iter().enumerate() {
+            corrected[dof] -= weights[i / g] * multipliers[i];
+        }
+        let mut solution = self.solver.solve(&corrected)?;
+        // the tangential unknowns are those of the condensed solution (exact zeros at stick nodes)
+        for (i, &dof) in self.tangential.iter().enumerate() {
+            solution[dof] = x[i];
+        }
+        Ok(solution)
+    }
+}
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
