@@ -2,5 +2,6 @@
 //! W. Han, M. Shillor, M. Sofonea, J. Comput. Appl. Math. 137 (2001) 377–398.
 
 pub mod error;
+pub mod obstacle;
 
 pub use error::{Error, Result};
