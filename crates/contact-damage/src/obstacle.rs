@@ -50,9 +50,10 @@
 //! 2. **Safeguard.** After the first iteration a PDAS iterate is a function of the active sets
 //!    alone, so PDAS either reaches a fixed point or revisits an earlier pair `(L, U)` and cycles
 //!    forever. Every visited pair is recorded (by a 64-bit hash: a collision can only cause an
-//!    unnecessary switch, never a wrong answer). On a revisit, on a fixed point of the sets whose
-//!    residual stays above the tolerance, or after half of the iteration budget, the solver switches to step 3, starting from the best feasible point seen so far
-//!    (least `q` among the projected PDAS iterates).
+//!    unnecessary switch, never a wrong answer). On a revisit, on a fixed point of the sets
+//!    whose residual stays above the tolerance, or after half of the iteration budget, the
+//!    solver switches to step 3, starting from the best feasible point seen so far (least `q`
+//!    among the projected PDAS iterates).
 //! 3. **Projected Newton method** (Bertsekas 1982) on the feasible set, globally convergent for
 //!    strictly convex bound-constrained problems: with `w = ‖x − clamp(x − g/diag A)‖_∞` and
 //!    `ε = min(ε̄, w)`, the ε-active set is
