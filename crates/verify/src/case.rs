@@ -1,0 +1,501 @@
+//! Manufactured cases as data: the TOML case file, its validation, and its translation into the
+//! solver's [`Problem`](contact_damage::scheme::Problem) with source terms derived by
+//! [`crate::manufactured`].
+//!
+//! A bad case file gets an error naming the file, the key and the problem.
+
+use crate::expr::Expr;
+use crate::manufactured::{value, ExactSolution, Laws};
+use crate::VerifyError;
+use contact_damage::laws::{
+    DamageSource, DamagedHooke, LinearViscosity, NormalComplianceCoulomb, SaturatingViscosity, Tensor,
+    TruncatedFremond, Viscosity,
+};
+use contact_damage::mesh::{BoundaryPart, Mesh};
+use contact_damage::scheme::{Data, Model, Problem, SchemeSettings};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::sync::Arc;
+
+/// The variables of the exact-field expressions.
+pub const FIELD_VARIABLES: [&str; 4] = ["x", "y", "z", "t"];
+/// The variables of a damage-source expression.
+pub const SOURCE_VARIABLES: [&str; 3] = ["beta", "tr_eps", "eps_eps"];
+
+/// The case file, as written in TOML.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseFile {
+    /// Short name (used for the report folder).
+    pub name: String,
+    /// What the case exercises.
+    #[serde(default)]
+    pub description: String,
+    /// Space dimension d ∈ {2, 3}.
+    pub dim: usize,
+    /// Final time T.
+    pub final_time: f64,
+    /// The box and its boundary parts.
+    pub domain: DomainFile,
+    /// Named constants usable in every expression.
+    #[serde(default)]
+    pub constants: BTreeMap<String, f64>,
+    /// Constitutive laws.
+    pub laws: LawsFile,
+    /// Exact fields and auxiliary fields.
+    pub exact: ExactFile,
+    /// Studies per polynomial degree: keys `order1`, `order2`.
+    #[serde(default)]
+    pub studies: BTreeMap<String, StudySet>,
+}
+
+/// `[domain]`: a box with a boundary part for each side.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DomainFile {
+    /// Lower corner.
+    pub lower: Vec<f64>,
+    /// Upper corner.
+    pub upper: Vec<f64>,
+    /// Side name (`x_min`, `x_max`, `y_min`, `y_max`, `z_min`, `z_max`) → `clamped` (Γ1),
+    /// `traction` (Γ2) or `contact` (Γ3).
+    pub sides: BTreeMap<String, String>,
+}
+
+/// `[laws]`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LawsFile {
+    /// 𝒜.
+    pub viscosity: ViscosityFile,
+    /// G.
+    pub elasticity: ElasticityFile,
+    /// φ.
+    pub damage_source: DamageSourceFile,
+    /// p_ν, p_τ.
+    pub contact: ContactFile,
+    /// κ.
+    pub damage_diffusion: f64,
+}
+
+/// Viscosity laws.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ViscosityFile {
+    /// 𝒜ε = 2ηε + ζ tr(ε) I.
+    Linear { shear: f64, bulk: f64 },
+    /// Linear plus a saturating deviatoric part.
+    Saturating { shear: f64, bulk: f64, extra_shear: f64, rate_scale: f64 },
+}
+
+/// Elasticity laws.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ElasticityFile {
+    /// G = β(2με + λ tr(ε) I).
+    DamagedHooke { shear_modulus: f64, lame_lambda: f64 },
+}
+
+/// Damage sources.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum DamageSourceFile {
+    /// The truncated Frémond source.
+    Fremond { lambda_d: f64, lambda_w: f64, damage_floor: f64, strain_energy_cap: f64 },
+    /// φ as an expression in `beta`, `tr_eps`, `eps_eps`.
+    Expression { expr: String },
+}
+
+/// Normal compliance with Coulomb friction (2.10)–(2.12).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactFile {
+    /// c_ν.
+    pub stiffness: f64,
+    /// μ.
+    pub friction: f64,
+    /// δ.
+    #[serde(default)]
+    pub wear: f64,
+}
+
+/// `[exact]`: the manufactured fields.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ExactFile {
+    /// u components.
+    pub u: Vec<String>,
+    /// β.
+    pub beta: String,
+    /// ξ components (stick traction field, |ξ_τ| < 1); default 0.
+    #[serde(default)]
+    pub stick_traction: Option<Vec<String>>,
+    /// η (damage bound multiplier); default 0.
+    #[serde(default)]
+    pub damage_multiplier: Option<String>,
+    /// g(x); default 0.
+    #[serde(default)]
+    pub gap: Option<String>,
+}
+
+/// Studies for one polynomial degree.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StudySet {
+    /// h-study: the time error is kept negligible by the step counts given per level.
+    pub h: Option<LevelStudy>,
+    /// k-study on one mesh against a reference run with a much finer step.
+    pub k: Option<TimeStudy>,
+    /// Diagonal study k ∝ h^r.
+    pub diagonal: Option<LevelStudy>,
+}
+
+/// A study over mesh levels, each with its number of time steps.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LevelStudy {
+    /// Cells per side of each level.
+    pub cells: Vec<usize>,
+    /// Time steps N of each level.
+    pub steps: Vec<usize>,
+}
+
+/// A study over time steps on one mesh.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TimeStudy {
+    /// Cells per side.
+    pub cells: usize,
+    /// Time steps N of each level.
+    pub steps: Vec<usize>,
+    /// Steps of the reference run (a common multiple of `steps`).
+    pub reference_steps: usize,
+}
+
+/// A validated case in dimension D.
+#[derive(Clone)]
+pub struct Case<const D: usize> {
+    /// The file as read.
+    pub file: CaseFile,
+    /// Where it came from (a path or `built-in:NAME`).
+    pub origin: String,
+    /// Box sides.
+    pub sides: [[BoundaryPart; 2]; D],
+    /// Laws (shared with the solver).
+    pub laws: Laws<D>,
+    /// Exact fields.
+    pub exact: ExactSolution<D>,
+}
+
+/// A damage source given by an expression in β, tr ε and ε:ε.
+pub struct ExpressionDamageSource {
+    expr: Expr,
+}
+
+impl<const D: usize> DamageSource<D> for ExpressionDamageSource {
+    fn source(&self, strain: &Tensor<D>, damage: f64) -> f64 {
+        self.expr.eval_f64(&[damage, strain.trace(), strain.norm_squared()])
+    }
+    fn validate(&self) -> contact_damage::Result<()> {
+        for beta in [0.0, 0.5, 1.0] {
+            let v = self.expr.eval_f64(&[beta, 0.0, 0.0]);
+            if !v.is_finite() {
+                return Err(contact_damage::Error::parameter(
+                    "laws.damage_source.expr at ε = 0",
+                    beta,
+                    "the damage source expression is not finite",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn case_error(origin: &str, key: &str, message: impl Into<String>) -> VerifyError {
+    VerifyError::Case {
+        file: origin.to_string(),
+        key: key.to_string(),
+        message: message.into(),
+    }
+}
+
+/// Reads and parses a case file (TOML syntax errors carry line and column).
+pub fn read_case_file(path: &Path) -> Result<CaseFile, VerifyError> {
+    let text = std::fs::read_to_string(path).map_err(|e| VerifyError::io("reading case file", path, e))?;
+    parse_case_file(&text, &path.display().to_string())
+}
+
+/// Parses case-file text; `origin` names it in errors.
+pub fn parse_case_file(text: &str, origin: &str) -> Result<CaseFile, VerifyError> {
+    toml::from_str::<CaseFile>(text).map_err(|e| {
+        let (line, column) = e
+            .span()
+            .map(|span| {
+                let before = &text[..span.start.min(text.len())];
+                let line = before.matches('\n').count() + 1;
+                let column = before.len() - before.rfind('\n').map_or(0, |p| p + 1) + 1;
+                (line, column)
+            })
+            .unwrap_or((0, 0));
+        case_error(origin, &format!("line {line}, column {column}"), e.message().to_string())
+    })
+}
+
+fn parse_expr(origin: &str, key: &str, source: &str, variables: &[&str], constants: &BTreeMap<String, f64>) -> Result<Expr, VerifyError> {
+    Expr::parse(source, variables, constants).map_err(|e| case_error(origin, key, format!("`{source}`: {e}")))
+}
+
+fn positive(origin: &str, key: &str, value: f64) -> Result<(), VerifyError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(case_error(origin, key, format!("must be a positive number, got {value}")))
+    }
+}
+
+impl<const D: usize> Case<D> {
+    /// Validates the case file and builds the laws and exact fields. Checks, at sampled points,
+    /// that u = 0 on Γ1, β ∈ [0, 1], |ξ_τ| < 1 on Γ3, η ∈ ∂ψ_K(β) and g ≥ 0 on Γ3.
+    pub fn new(file: CaseFile, origin: &str) -> Result<Self, VerifyError> {
+        if file.dim != D {
+            return Err(case_error(origin, "dim", format!("expected {D}, got {}", file.dim)));
+        }
+        positive(origin, "final_time", file.final_time)?;
+        if file.domain.lower.len() != D || file.domain.upper.len() != D {
+            return Err(case_error(origin, "domain.lower/upper", format!("need {D} coordinates each")));
+        }
+        let axes = ["x", "y", "z"];
+        let mut sides = [[BoundaryPart::Neumann; 2]; D];
+        for (key, part) in &file.domain.sides {
+            let (axis, end) = match key.split_once('_') {
+                Some((a, e)) => (axes.iter().position(|n| *n == a), e),
+                None => (None, ""),
+            };
+            let side = match end {
+                "min" => Some(0),
+                "max" => Some(1),
+                _ => None,
+            };
+            let (Some(axis), Some(side)) = (axis.filter(|&a| a < D), side) else {
+                return Err(case_error(origin, &format!("domain.sides.{key}"), "unknown side (use x_min, x_max, y_min, y_max[, z_min, z_max])"));
+            };
+            sides[axis][side] = match part.as_str() {
+                "clamped" => BoundaryPart::Dirichlet,
+                "traction" => BoundaryPart::Neumann,
+                "contact" => BoundaryPart::Contact,
+                other => {
+                    return Err(case_error(origin, &format!("domain.sides.{key}"), format!("unknown part `{other}` (use clamped, traction or contact)")))
+                }
+            };
+        }
+        let constants = &file.constants;
+        let laws_file = &file.laws;
+        let viscosity: Arc<dyn Viscosity<D>> = match laws_file.viscosity {
+            ViscosityFile::Linear { shear, bulk } => Arc::new(LinearViscosity { shear, bulk }),
+            ViscosityFile::Saturating { shear, bulk, extra_shear, rate_scale } => Arc::new(SaturatingViscosity {
+                linear: LinearViscosity { shear, bulk },
+                extra_shear,
+                rate_scale,
+            }),
+        };
+        let ElasticityFile::DamagedHooke { shear_modulus, lame_lambda } = laws_file.elasticity;
+        let elasticity = Arc::new(DamagedHooke { shear_modulus, lame_lambda });
+        let damage_source: Arc<dyn DamageSource<D>> = match &laws_file.damage_source {
+            DamageSourceFile::Fremond { lambda_d, lambda_w, damage_floor, strain_energy_cap } => Arc::new(TruncatedFremond {
+                lambda_d: *lambda_d,
+                lambda_w: *lambda_w,
+                damage_floor: *damage_floor,
+                strain_energy_cap: *strain_energy_cap,
+            }),
+            DamageSourceFile::Expression { expr } => Arc::new(ExpressionDamageSource {
+                expr: parse_expr(origin, "laws.damage_source.expr", expr, &SOURCE_VARIABLES, constants)?,
+            }),
+        };
+        let contact = Arc::new(NormalComplianceCoulomb {
+            stiffness: laws_file.contact.stiffness,
+            friction: laws_file.contact.friction,
+            wear: laws_file.contact.wear,
+        });
+        let laws = Laws {
+            viscosity,
+            elasticity,
+            damage_source,
+            contact,
+            damage_diffusion: laws_file.damage_diffusion,
+        };
+        let law_error = |e: contact_damage::Error| case_error(origin, "laws", e.to_string());
+        laws.viscosity.validate().map_err(law_error)?;
+        contact_damage::laws::Elasticity::<D>::validate(laws.elasticity.as_ref()).map_err(law_error)?;
+        laws.damage_source.validate().map_err(law_error)?;
+        laws.contact.validate().map_err(law_error)?;
+        positive(origin, "laws.damage_diffusion", laws.damage_diffusion)?;
+
+        let exact_file = &file.exact;
+        if exact_file.u.len() != D {
+            return Err(case_error(origin, "exact.u", format!("need {D} components, got {}", exact_file.u.len())));
+        }
+        let vector = |key: &str, sources: &[String]| -> Result<[Expr; D], VerifyError> {
+            let parsed: Vec<Expr> = sources
+                .iter()
+                .enumerate()
+                .map(|(i, s)| parse_expr(origin, &format!("{key}[{i}]"), s, &FIELD_VARIABLES, constants))
+                .collect::<Result<_, _>>()?;
+            parsed.try_into().map_err(|_| case_error(origin, key, format!("need {D} components")))
+        };
+        let zero = || vec!["0".to_string(); D];
+        let exact = ExactSolution {
+            displacement: vector("exact.u", &exact_file.u)?,
+            damage: parse_expr(origin, "exact.beta", &exact_file.beta, &FIELD_VARIABLES, constants)?,
+            stick_traction: vector("exact.stick_traction", exact_file.stick_traction.as_ref().unwrap_or(&zero()))?,
+            damage_multiplier: parse_expr(
+                origin,
+                "exact.damage_multiplier",
+                exact_file.damage_multiplier.as_deref().unwrap_or("0"),
+                &FIELD_VARIABLES,
+                constants,
+            )?,
+            gap: parse_expr(origin, "exact.gap", exact_file.gap.as_deref().unwrap_or("0"), &FIELD_VARIABLES, constants)?,
+        };
+        if exact.gap.used_variables().iter().any(|v| v == "t") {
+            return Err(case_error(origin, "exact.gap", "the gap g(x) must not depend on t"));
+        }
+        let case = Self {
+            origin: origin.to_string(),
+            sides,
+            laws,
+            exact,
+            file,
+        };
+        case.check_samples()?;
+        Ok(case)
+    }
+
+    fn lower(&self) -> [f64; D] {
+        std::array::from_fn(|i| self.file.domain.lower[i])
+    }
+
+    fn upper(&self) -> [f64; D] {
+        std::array::from_fn(|i| self.file.domain.upper[i])
+    }
+
+    /// Sample points on a regular lattice of the box (including its boundary) at several times.
+    fn check_samples(&self) -> Result<(), VerifyError> {
+        let origin = &self.origin;
+        let (lower, upper) = (self.lower(), self.upper());
+        let per_axis: usize = if D == 2 { 25 } else { 11 };
+        let times: Vec<f64> = (0..=4).map(|i| self.file.final_time * i as f64 / 4.0).collect();
+        let total = per_axis.pow(D as u32);
+        for index in 0..total {
+            let mut rest = index;
+            let lattice: [usize; D] = std::array::from_fn(|_| {
+                let i = rest % per_axis;
+                rest /= per_axis;
+                i
+            });
+            let x: [f64; D] = std::array::from_fn(|i| lower[i] + (upper[i] - lower[i]) * lattice[i] as f64 / (per_axis - 1) as f64);
+            // which sides is x on?
+            let mut parts = Vec::new();
+            let mut normals = Vec::new();
+            for axis in 0..D {
+                for (side, coordinate) in [lower[axis], upper[axis]].into_iter().enumerate() {
+                    if (x[axis] - coordinate).abs() < 1e-14 {
+                        parts.push(self.sides[axis][side]);
+                        let mut n = [0.0; D];
+                        n[axis] = if side == 0 { -1.0 } else { 1.0 };
+                        normals.push(n);
+                    }
+                }
+            }
+            for &t in &times {
+                let at = || format!("at x = {x:?}, t = {t}");
+                let beta = value(&self.exact.damage, &x, t);
+                if !(-1e-14..=1.0 + 1e-14).contains(&beta) || !beta.is_finite() {
+                    return Err(case_error(origin, "exact.beta", format!("β = {beta} is outside [0, 1] {}", at())));
+                }
+                let eta = value(&self.exact.damage_multiplier, &x, t);
+                let eta_ok = if beta >= 1.0 - 1e-14 {
+                    eta >= 0.0
+                } else if beta <= 1e-14 {
+                    eta <= 0.0
+                } else {
+                    eta.abs() <= 1e-12
+                };
+                if !eta_ok || !eta.is_finite() {
+                    return Err(case_error(
+                        origin,
+                        "exact.damage_multiplier",
+                        format!("η = {eta} is not in ∂ψ_[0,1](β) for β = {beta} {}", at()),
+                    ));
+                }
+                for (part, normal) in parts.iter().zip(&normals) {
+                    match part {
+                        BoundaryPart::Dirichlet => {
+                            for (i, component) in self.exact.displacement.iter().enumerate() {
+                                let u = value(component, &x, t);
+                                if u.abs() > 1e-12 {
+                                    return Err(case_error(origin, &format!("exact.u[{i}]"), format!("u = {u} ≠ 0 on Γ1 (clamped side) {}", at())));
+                                }
+                            }
+                        }
+                        BoundaryPart::Contact => {
+                            let gap = value(&self.exact.gap, &x, t);
+                            if gap < 0.0 || !gap.is_finite() {
+                                return Err(case_error(origin, "exact.gap", format!("g = {gap} < 0 on Γ3 {}", at())));
+                            }
+                            let xi: Vec<f64> = self.exact.stick_traction.iter().map(|e| value(e, &x, t)).collect();
+                            let normal_part: f64 = xi.iter().zip(normal).map(|(a, b)| a * b).sum();
+                            let tangential = (xi.iter().map(|v| v * v).sum::<f64>() - normal_part * normal_part).max(0.0).sqrt();
+                            if tangential >= 1.0 {
+                                return Err(case_error(origin, "exact.stick_traction", format!("|ξ_τ| = {tangential} ≥ 1 on Γ3 {}", at())));
+                            }
+                        }
+                        BoundaryPart::Neumann => {}
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The box mesh with `cells` intervals per side.
+    pub fn mesh(&self, cells: usize) -> Result<Mesh<D>, VerifyError> {
+        Ok(Mesh::box_mesh(self.lower(), self.upper(), [cells; D], self.sides)?)
+    }
+
+    /// The solver problem with the manufactured data (SPEC §4) for one run.
+    pub fn problem(&self, cells: usize, degree: usize, steps: usize) -> Result<Problem<D>, VerifyError> {
+        let laws = self.laws.clone();
+        let exact = Arc::new(self.exact.clone());
+        let (e0, l0) = (exact.clone(), laws.clone());
+        let (e2, l2) = (exact.clone(), laws.clone());
+        let (e3, l3) = (exact.clone(), laws.clone());
+        let (eq, lq) = (exact.clone(), laws.clone());
+        let (ef, lf) = (exact.clone(), laws.clone());
+        let (eu, eb, eg) = (exact.clone(), exact.clone(), exact.clone());
+        Ok(Problem {
+            mesh: Arc::new(self.mesh(cells)?),
+            degree,
+            model: Model {
+                viscosity: laws.viscosity.clone(),
+                elasticity: laws.elasticity.clone(),
+                damage_source: laws.damage_source.clone(),
+                contact: laws.contact.clone(),
+                damage_diffusion: laws.damage_diffusion,
+            },
+            data: Data {
+                body_force: Some(Arc::new(move |x, t| e0.body_force(&l0, x, t))),
+                traction: Some(Arc::new(move |x, t, n| e2.traction(&l2, x, t, n))),
+                contact_traction: Some(Arc::new(move |x, t, n| e3.contact_traction(&l3, x, t, n))),
+                damage_supply: Some(Arc::new(move |x, t| eq.damage_supply(&lq, x, t))),
+                damage_flux: Some(Arc::new(move |x, t, n| ef.damage_flux(&lf, x, t, n))),
+                gap: Arc::new(move |x| value(&eg.gap, x, 0.0)),
+                initial_displacement: Arc::new(move |x| std::array::from_fn(|i| value(&eu.displacement[i], x, 0.0))),
+                initial_damage: Arc::new(move |x| value(&eb.damage, x, 0.0)),
+            },
+            final_time: self.file.final_time,
+            steps,
+            settings: SchemeSettings::default(),
+        })
+    }
+}

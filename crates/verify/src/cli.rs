@@ -1,0 +1,186 @@
+//! The `verify` command line: runs the studies of a case and writes its reports.
+
+use crate::case::{parse_case_file, read_case_file, Case, CaseFile};
+use crate::report::write_reports;
+use crate::study::{level_study, time_study, StudyKind, StudyResult};
+use crate::VerifyError;
+use clap::Parser;
+use std::path::PathBuf;
+
+/// Built-in cases: (name, TOML text). The files live in `verification/`.
+pub const BUILT_IN_CASES: [(&str, &str); 4] = [
+    ("slip2d", include_str!("../../../verification/slip2d.toml")),
+    ("zones2d", include_str!("../../../verification/zones2d.toml")),
+    ("slip3d", include_str!("../../../verification/slip3d.toml")),
+    ("zones3d", include_str!("../../../verification/zones3d.toml")),
+];
+
+/// Manufactured-solution convergence verification of the contact-damage scheme (Theorem 5.2).
+#[derive(Debug, Parser)]
+#[command(name = "verify", version, about)]
+pub struct Cli {
+    /// Polynomial degree l of the finite elements (1 or 2).
+    #[arg(long, default_value_t = 1)]
+    pub order: usize,
+    /// Space dimension of the default case (2 or 3); ignored with --case.
+    #[arg(long, default_value_t = 2)]
+    pub dim: usize,
+    /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d).
+    #[arg(long)]
+    pub case: Option<String>,
+    /// Use only the first (coarsest) N levels of every study.
+    #[arg(long)]
+    pub levels: Option<usize>,
+    /// Which studies to run (comma-separated: h, k, diagonal).
+    #[arg(long, value_delimiter = ',', default_value = "h,k,diagonal")]
+    pub studies: Vec<String>,
+    /// Output folder (default: reports/<case>).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    pub threads: Option<usize>,
+}
+
+/// Loads the case named on the command line (or the default one for the dimension).
+pub fn load_case(cli: &Cli) -> Result<(CaseFile, String), VerifyError> {
+    let name = match &cli.case {
+        Some(name) => name.clone(),
+        None => match cli.dim {
+            2 => "zones2d".to_string(),
+            3 => "zones3d".to_string(),
+            other => return Err(VerifyError::InvalidInput(format!("--dim must be 2 or 3, got {other}"))),
+        },
+    };
+    if let Some((builtin, text)) = BUILT_IN_CASES.iter().find(|(n, _)| *n == name) {
+        let origin = format!("built-in:{builtin}");
+        return Ok((parse_case_file(text, &origin)?, origin));
+    }
+    let path = PathBuf::from(&name);
+    Ok((read_case_file(&path)?, path.display().to_string()))
+}
+
+fn truncate<T: Clone>(values: &[T], levels: Option<usize>) -> Vec<T> {
+    match levels {
+        Some(n) => values[..n.min(values.len())].to_vec(),
+        None => values.to_vec(),
+    }
+}
+
+/// Runs the requested studies of a case in dimension D.
+pub fn run_studies<const D: usize>(case: &Case<D>, cli: &Cli) -> Result<Vec<StudyResult>, VerifyError> {
+    let key = format!("order{}", cli.order);
+    let set = case.file.studies.get(&key).ok_or_else(|| {
+        VerifyError::InvalidInput(format!("case `{}` defines no studies for l = {} (no [studies.{key}])", case.origin, cli.order))
+    })?;
+    let mut results = Vec::new();
+    for name in &cli.studies {
+        match name.as_str() {
+            "h" => {
+                if let Some(study) = &set.h {
+                    let mut study = study.clone();
+                    study.cells = truncate(&study.cells, cli.levels);
+                    study.steps = truncate(&study.steps, cli.levels);
+                    results.push(level_study(case, cli.order, StudyKind::H, &study)?);
+                }
+            }
+            "diagonal" => {
+                if let Some(study) = &set.diagonal {
+                    let mut study = study.clone();
+                    study.cells = truncate(&study.cells, cli.levels);
+                    study.steps = truncate(&study.steps, cli.levels);
+                    results.push(level_study(case, cli.order, StudyKind::Diagonal, &study)?);
+                }
+            }
+            "k" => {
+                if let Some(study) = &set.k {
+                    let mut study = study.clone();
+                    study.steps = truncate(&study.steps, cli.levels);
+                    results.push(time_study(case, cli.order, &study)?);
+                }
+            }
+            other => return Err(VerifyError::InvalidInput(format!("unknown study `{other}` (use h, k, diagonal)"))),
+        }
+    }
+    Ok(results)
+}
+
+/// Prints a table of a study to stdout.
+pub fn print_study(study: &StudyResult) {
+    println!(
+        "\n{}-study, l = {}: rates in {} (expected {:.2}, verdict {})",
+        study.kind.name(),
+        study.degree,
+        study.variable,
+        study.expected_rate,
+        if study.pass { "PASS" } else { "FAIL" }
+    );
+    println!(
+        "{:>6} {:>6} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>9} {:>7}",
+        "cells", "steps", "h", "k", "E_u", "E_du", "E_beta", "E_gradb", "E_total", "max KKT", "time s"
+    );
+    for run in &study.runs {
+        println!(
+            "{:>6} {:>6} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>9.1e} {:>7.2}",
+            run.cells,
+            run.steps,
+            run.h,
+            run.k,
+            run.errors.displacement,
+            run.errors.difference_quotient,
+            run.errors.damage,
+            run.errors.damage_gradient,
+            run.errors.total,
+            run.stats.max_velocity_kkt.max(run.stats.max_damage_kkt),
+            run.stats.wall_seconds
+        );
+    }
+    for rates in &study.rates {
+        let pairwise: Vec<String> = rates.pairwise.iter().map(|r| format!("{r:.2}")).collect();
+        println!(
+            "  {:<20} pairwise [{}]  least squares {:.3}{}",
+            rates.component,
+            pairwise.join(", "),
+            rates.least_squares,
+            match rates.pass {
+                Some(true) => "  ok",
+                Some(false) => "  BELOW EXPECTED",
+                None => "",
+            }
+        );
+    }
+}
+
+/// Runs the command line; returns whether every verdict passed.
+pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
+    if !(1..=2).contains(&cli.order) {
+        return Err(VerifyError::InvalidInput(format!("--order must be 1 or 2, got {}", cli.order)));
+    }
+    if let Some(threads) = cli.threads {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads.max(1))
+            .build_global()
+            .map_err(|e| VerifyError::InvalidInput(format!("--threads {threads}: {e}")))?;
+    }
+    let (file, origin) = load_case(&cli)?;
+    let name = file.name.clone();
+    let dim = file.dim;
+    let started = std::time::Instant::now();
+    let studies = match dim {
+        2 => run_studies(&Case::<2>::new(file, &origin)?, &cli)?,
+        3 => run_studies(&Case::<3>::new(file, &origin)?, &cli)?,
+        other => return Err(VerifyError::InvalidInput(format!("{origin}: dim must be 2 or 3, got {other}"))),
+    };
+    for study in &studies {
+        print_study(study);
+    }
+    let out = cli.out.clone().unwrap_or_else(|| PathBuf::from("reports").join(&name));
+    let written = write_reports(&out, &name, &origin, dim, &studies)?;
+    println!("\ncase {name} ({origin}), d = {dim}, l = {}: {:.1} s", cli.order, started.elapsed().as_secs_f64());
+    for path in written {
+        println!("wrote {}", path.display());
+    }
+    let pass = studies.iter().all(|s| s.pass);
+    println!("verdict: {}", if pass { "PASS" } else { "FAIL" });
+    Ok(pass)
+}

@@ -1,0 +1,250 @@
+//! The error quantity E(h, k) of Theorem 5.2 (SPEC §3), component by component:
+//!
+//! - `displacement`: max_n ‖u(t_n) − u_n^hk‖_V, with ‖w‖_V = ‖ε(w)‖_{L²} (3.3);
+//! - `difference_quotient`: max_n ‖δu_n − δu_n^hk‖_V, δu_n = (u(t_n) − u(t_{n−1}))/k, δu_n^hk = v_n;
+//! - `damage`: max_n ‖β(t_n) − β_n^hk‖_{L²};
+//! - `damage_gradient`: (k Σ_n ‖∇(β(t_n) − β_n^hk)‖²_{L²})^{1/2};
+//! - `total` = the sum of the four (E(h, k));
+//! - `velocity`: max_n ‖u̇(t_n) − v_n‖_V (reported, not bounded by the theorem as stated).
+//!
+//! Integrals use a cell quadrature of degree 2l + 3 against the exact fields, or, for a
+//! temporal self-convergence study, against a reference discrete solution on the same mesh.
+
+use crate::manufactured::ExactSolution;
+use contact_damage::assembly::{field_strain, physical_gradients};
+use contact_damage::laws::Tensor;
+use contact_damage::quadrature::QuadratureRule;
+use contact_damage::scheme::State;
+use contact_damage::space::{LagrangeSpace, Tabulation};
+use nalgebra::{Const, SMatrix, SVector};
+use num_dual::{Dual64, DualVec};
+use rayon::prelude::*;
+use serde::Serialize;
+use std::sync::Arc;
+
+/// The components of E(h, k) and the velocity error.
+#[derive(Debug, Clone, Copy, Default, Serialize)]
+pub struct ErrorComponents {
+    /// max_n ‖ε(u(t_n) − u_n)‖.
+    pub displacement: f64,
+    /// max_n ‖ε(δu_n − δu_n^hk)‖.
+    pub difference_quotient: f64,
+    /// max_n ‖β(t_n) − β_n‖.
+    pub damage: f64,
+    /// (k Σ ‖∇(β(t_n) − β_n)‖²)^{1/2}.
+    pub damage_gradient: f64,
+    /// E(h, k): the sum of the four components above.
+    pub total: f64,
+    /// max_n ‖ε(u̇(t_n) − v_n)‖ (NaN when the reference is discrete).
+    pub velocity: f64,
+}
+
+impl ErrorComponents {
+    /// Names of the components, in the order of [`ErrorComponents::values`].
+    pub const NAMES: [&'static str; 6] = ["displacement", "difference_quotient", "damage", "damage_gradient", "total", "velocity"];
+
+    /// The components in the order of [`ErrorComponents::NAMES`].
+    pub fn values(&self) -> [f64; 6] {
+        [self.displacement, self.difference_quotient, self.damage, self.damage_gradient, self.total, self.velocity]
+    }
+}
+
+/// Exact fields at one quadrature point and time.
+#[derive(Debug, Clone, Copy)]
+struct ExactPoint<const D: usize> {
+    displacement_gradient: SMatrix<f64, D, D>,
+    velocity_gradient: SMatrix<f64, D, D>,
+    damage: f64,
+    damage_gradient: SVector<f64, D>,
+}
+
+fn exact_point<const D: usize>(exact: &ExactSolution<D>, x: &[f64; D], t: f64) -> ExactPoint<D> {
+    let point = SVector::<Dual64, D>::from_fn(|i, _| Dual64::from(x[i]));
+    let eval = |expr: &crate::expr::Expr| {
+        num_dual::gradient(
+            |p: SVector<DualVec<Dual64, Const<D>>, D>| {
+                let time = DualVec::from_re(Dual64::new(t, 1.0));
+                let zero = DualVec::from_re(Dual64::from(0.0));
+                let vars = [p[0], p[1], if D == 3 { p[D - 1] } else { zero }, time];
+                expr.eval(&vars)
+            },
+            &point,
+        )
+    };
+    let mut displacement_gradient = SMatrix::<f64, D, D>::zeros();
+    let mut velocity_gradient = SMatrix::<f64, D, D>::zeros();
+    for i in 0..D {
+        let (_, gradient) = eval(&exact.displacement[i]);
+        for j in 0..D {
+            displacement_gradient[(i, j)] = gradient[j].re;
+            velocity_gradient[(i, j)] = gradient[j].eps;
+        }
+    }
+    let (beta, beta_gradient) = eval(&exact.damage);
+    ExactPoint {
+        displacement_gradient,
+        velocity_gradient,
+        damage: beta.re,
+        damage_gradient: beta_gradient.map(|g| g.re),
+    }
+}
+
+fn sym<const D: usize>(m: &SMatrix<f64, D, D>) -> Tensor<D> {
+    (m + m.transpose()) * 0.5
+}
+
+/// What the discrete solution is compared with.
+pub enum Reference<const D: usize> {
+    /// The manufactured exact solution.
+    Exact(Arc<ExactSolution<D>>),
+    /// A discrete solution on the same space; `states[i]` is the state at time `i·T/(states.len()−1)`.
+    Discrete(Arc<Vec<State>>),
+}
+
+/// Accumulates the error components over the steps of one run (used inside the observer).
+pub struct ErrorTracker<const D: usize> {
+    reference: Reference<D>,
+    tabulation: Tabulation<D>,
+    time_step: f64,
+    steps: usize,
+    /// Reference ε(u) at the quadrature points at the previous time.
+    previous_strain: Vec<Tensor<D>>,
+    /// The previous reference state index or discrete displacement (discrete reference).
+    previous_displacement: Vec<f64>,
+    errors: ErrorComponents,
+    gradient_sum: f64,
+}
+
+impl<const D: usize> ErrorTracker<D> {
+    /// A tracker for a run with N = `steps` steps of size k on `space`.
+    pub fn new(space: &LagrangeSpace<D>, reference: Reference<D>, time_step: f64, steps: usize) -> Self {
+        let rule = QuadratureRule::<D>::simplex(2 * space.degree() + 3);
+        let tabulation = Tabulation::cell_rule(space.element(), &rule);
+        let mut tracker = Self {
+            reference,
+            tabulation,
+            time_step,
+            steps,
+            previous_strain: Vec::new(),
+            previous_displacement: Vec::new(),
+            errors: ErrorComponents::default(),
+            gradient_sum: 0.0,
+        };
+        match &tracker.reference {
+            Reference::Exact(exact) => {
+                let exact = exact.clone();
+                tracker.previous_strain = tracker.exact_strains(space, &exact, 0.0);
+            }
+            Reference::Discrete(states) => tracker.previous_displacement = states[0].displacement.clone(),
+        }
+        tracker
+    }
+
+    fn exact_strains(&self, space: &LagrangeSpace<D>, exact: &ExactSolution<D>, t: f64) -> Vec<Tensor<D>> {
+        let nq = self.tabulation.len();
+        let mut strains = vec![Tensor::<D>::zeros(); space.mesh().num_cells() * nq];
+        strains.par_chunks_mut(nq).enumerate().for_each(|(cell, out)| {
+            let geometry = space.geometry(cell);
+            for (q, slot) in out.iter_mut().enumerate() {
+                let x = geometry.point(&self.tabulation.points[q]);
+                *slot = sym(&exact_point(exact, &x, t).displacement_gradient);
+            }
+        });
+        strains
+    }
+
+    /// Adds the errors of the state after step n.
+    pub fn observe(&mut self, space: &LagrangeSpace<D>, state: &State) {
+        let tab = &self.tabulation;
+        let nq = tab.len();
+        let n_nodes = tab.nodes;
+        let k = self.time_step;
+        let t = state.time;
+        // squared norms: [u, δu, β, ∇β, v]
+        let mut new_strain = vec![Tensor::<D>::zeros(); space.mesh().num_cells() * nq];
+        let reference_state = match &self.reference {
+            Reference::Discrete(states) => {
+                let stride = (states.len() - 1) / self.steps;
+                Some(&states[state.step * stride])
+            }
+            Reference::Exact(_) => None,
+        };
+        let previous_displacement = &self.previous_displacement;
+        let previous_strain = &self.previous_strain;
+        let exact = match &self.reference {
+            Reference::Exact(e) => Some(e.clone()),
+            Reference::Discrete(_) => None,
+        };
+        let sums = new_strain
+            .par_chunks_mut(nq)
+            .enumerate()
+            .map(|(cell, strain_out)| {
+                let geometry = space.geometry(cell);
+                let nodes = space.cell_nodes(cell);
+                let mut grads = [SVector::<f64, D>::zeros(); 10];
+                let mut local = [0.0; 5];
+                for q in 0..nq {
+                    physical_gradients(geometry, tab, q, &mut grads);
+                    let values = &tab.values[q * n_nodes..(q + 1) * n_nodes];
+                    let weight = tab.weights[q] * geometry.det;
+                    let strain_h = field_strain(nodes, &grads[..n_nodes], &state.displacement);
+                    let rate_h = field_strain(nodes, &grads[..n_nodes], &state.velocity);
+                    let beta_h: f64 = nodes.iter().zip(values).map(|(&node, v)| state.damage[node] * v).sum();
+                    let grad_beta_h: SVector<f64, D> = nodes
+                        .iter()
+                        .enumerate()
+                        .map(|(a, &node)| grads[a] * state.damage[node])
+                        .fold(SVector::<f64, D>::zeros(), |acc, g| acc + g);
+                    let (strain, quotient, rate, beta, grad_beta) = if let Some(exact) = &exact {
+                        let x = geometry.point(&tab.points[q]);
+                        let point = exact_point(exact, &x, t);
+                        let strain = sym(&point.displacement_gradient);
+                        let quotient = (strain - previous_strain[cell * nq + q]) / k;
+                        (strain, quotient, Some(sym(&point.velocity_gradient)), point.damage, point.damage_gradient)
+                    } else {
+                        let reference = reference_state.expect("discrete reference state");
+                        let strain = field_strain(nodes, &grads[..n_nodes], &reference.displacement);
+                        let previous = field_strain(nodes, &grads[..n_nodes], previous_displacement);
+                        let beta: f64 = nodes.iter().zip(values).map(|(&node, v)| reference.damage[node] * v).sum();
+                        let grad_beta = nodes
+                            .iter()
+                            .enumerate()
+                            .map(|(a, &node)| grads[a] * reference.damage[node])
+                            .fold(SVector::<f64, D>::zeros(), |acc, g| acc + g);
+                        (strain, (strain - previous) / k, None, beta, grad_beta)
+                    };
+                    strain_out[q] = strain;
+                    local[0] += weight * (strain - strain_h).norm_squared();
+                    local[1] += weight * (quotient - rate_h).norm_squared();
+                    local[2] += weight * (beta - beta_h).powi(2);
+                    local[3] += weight * (grad_beta - grad_beta_h).norm_squared();
+                    if let Some(rate) = rate {
+                        local[4] += weight * (rate - rate_h).norm_squared();
+                    } else {
+                        local[4] = f64::NAN;
+                    }
+                }
+                local
+            })
+            .reduce(|| [0.0; 5], |a, b| std::array::from_fn(|i| a[i] + b[i]));
+        self.errors.displacement = self.errors.displacement.max(sums[0].sqrt());
+        self.errors.difference_quotient = self.errors.difference_quotient.max(sums[1].sqrt());
+        self.errors.damage = self.errors.damage.max(sums[2].sqrt());
+        self.gradient_sum += k * sums[3];
+        self.errors.velocity = if sums[4].is_nan() { f64::NAN } else { self.errors.velocity.max(sums[4].sqrt()) };
+        match &self.reference {
+            Reference::Exact(_) => self.previous_strain = new_strain,
+            Reference::Discrete(_) => {
+                self.previous_displacement = reference_state.map(|s| s.displacement.clone()).unwrap_or_default()
+            }
+        }
+    }
+
+    /// The accumulated components (call after the last step).
+    pub fn finish(&self) -> ErrorComponents {
+        let mut errors = self.errors;
+        errors.damage_gradient = self.gradient_sum.sqrt();
+        errors.total = errors.displacement + errors.difference_quotient + errors.damage + errors.damage_gradient;
+        errors
+    }
+}

@@ -1,0 +1,222 @@
+//! Manufactured solutions (SPEC §4): exact fields u, β given as expressions in (x, y, z, t), and
+//! the data that make them exact — f0, f2, f3, q and the damage flux — derived by automatic
+//! differentiation (num-dual) and the chain rule through the solver's constitutive laws.
+//!
+//! One nested dual evaluation, `Dual2Vec<Dual64, D>` (a second-order dual in space over a
+//! first-order dual in time), yields u, u̇, ∇u, ∇u̇, ∇²u and ∇²u̇ at once: no derivative is
+//! written by hand.
+
+use crate::expr::Expr;
+use contact_damage::laws::{ContactLaw, DamageSource, Elasticity, Tensor, Viscosity};
+use nalgebra::{Const, SMatrix, SVector};
+use num_dual::{hessian, Dual2Vec, Dual64};
+use std::sync::Arc;
+
+/// Value, time derivative, spatial gradient and Hessian of a scalar field and of its time derivative.
+#[derive(Debug, Clone, Copy)]
+pub struct Jet<const D: usize> {
+    /// f(x, t).
+    pub value: f64,
+    /// ∂f/∂t.
+    pub rate: f64,
+    /// ∇f.
+    pub gradient: SVector<f64, D>,
+    /// ∇(∂f/∂t).
+    pub rate_gradient: SVector<f64, D>,
+    /// ∇²f.
+    pub hessian: SMatrix<f64, D, D>,
+    /// ∇²(∂f/∂t).
+    pub rate_hessian: SMatrix<f64, D, D>,
+}
+
+/// Evaluates the jet of an expression in the variables (x, y, z, t) (z = 0 in 2D).
+pub fn jet<const D: usize>(expr: &Expr, x: &[f64; D], t: f64) -> Jet<D> {
+    let point = SVector::<Dual64, D>::from_fn(|i, _| Dual64::from(x[i]));
+    let (value, gradient, hess) = hessian(
+        |p: SVector<Dual2Vec<Dual64, Const<D>>, D>| {
+            let time = Dual2Vec::from_re(Dual64::new(t, 1.0));
+            let zero = Dual2Vec::from_re(Dual64::from(0.0));
+            let vars = [p[0], p[1], if D == 3 { p[D - 1] } else { zero }, time];
+            expr.eval(&vars)
+        },
+        &point,
+    );
+    Jet {
+        value: value.re,
+        rate: value.eps,
+        gradient: gradient.map(|g| g.re),
+        rate_gradient: gradient.map(|g| g.eps),
+        hessian: hess.map(|h| h.re),
+        rate_hessian: hess.map(|h| h.eps),
+    }
+}
+
+/// Value and gradient of an expression at (x, t) (first-order duals only; for error norms).
+pub fn value_gradient<const D: usize>(expr: &Expr, x: &[f64; D], t: f64) -> (f64, SVector<f64, D>) {
+    let point = SVector::<f64, D>::from_column_slice(x);
+    let (value, gradient) = num_dual::gradient(
+        |p: SVector<num_dual::DualVec<f64, Const<D>>, D>| {
+            let time = num_dual::DualVec::from_re(t);
+            let zero = num_dual::DualVec::from_re(0.0);
+            let vars = [p[0], p[1], if D == 3 { p[D - 1] } else { zero }, time];
+            expr.eval(&vars)
+        },
+        &point,
+    );
+    (value, gradient)
+}
+
+/// Plain value of an expression at (x, t).
+pub fn value<const D: usize>(expr: &Expr, x: &[f64; D], t: f64) -> f64 {
+    let z = if D == 3 { x[D - 1] } else { 0.0 };
+    expr.eval_f64(&[x[0], x[1], z, t])
+}
+
+/// The exact solution of a manufactured case and the auxiliary fields of SPEC §4.
+#[derive(Clone)]
+pub struct ExactSolution<const D: usize> {
+    /// u_i(x, t), i = 1..D.
+    pub displacement: [Expr; D],
+    /// β(x, t).
+    pub damage: Expr,
+    /// ξ(x, t): the stick traction field (its tangential part is used), |ξ_τ| < 1.
+    pub stick_traction: [Expr; D],
+    /// η(x, t) ∈ ∂ψ_K(β): ≥ 0 where β = 1, ≤ 0 where β = 0, 0 in between.
+    pub damage_multiplier: Expr,
+    /// g(x) ≥ 0.
+    pub gap: Expr,
+}
+
+/// The constitutive laws the sources are derived with (the same objects the solver uses).
+#[derive(Clone)]
+pub struct Laws<const D: usize> {
+    /// 𝒜.
+    pub viscosity: Arc<dyn Viscosity<D>>,
+    /// G.
+    pub elasticity: Arc<dyn Elasticity<D>>,
+    /// φ.
+    pub damage_source: Arc<dyn DamageSource<D>>,
+    /// p_ν, p_τ.
+    pub contact: Arc<dyn ContactLaw>,
+    /// κ.
+    pub damage_diffusion: f64,
+}
+
+/// All derivatives of the exact fields at one point and time.
+#[derive(Debug, Clone, Copy)]
+pub struct PointState<const D: usize> {
+    /// u.
+    pub displacement: SVector<f64, D>,
+    /// u̇.
+    pub velocity: SVector<f64, D>,
+    /// ∇u (∂u_i/∂x_j at (i, j)).
+    pub displacement_gradient: SMatrix<f64, D, D>,
+    /// ∇u̇.
+    pub velocity_gradient: SMatrix<f64, D, D>,
+    /// ∂_j ∇u for j = 0..D (∂²u_i/∂x_k∂x_j at (i, k) of entry j).
+    pub displacement_second: [SMatrix<f64, D, D>; D],
+    /// ∂_j ∇u̇.
+    pub velocity_second: [SMatrix<f64, D, D>; D],
+    /// Jet of β.
+    pub damage: Jet<D>,
+}
+
+fn symmetric<const D: usize>(m: &SMatrix<f64, D, D>) -> Tensor<D> {
+    (m + m.transpose()) * 0.5
+}
+
+impl<const D: usize> ExactSolution<D> {
+    /// Evaluates every derivative needed by the source terms at (x, t).
+    pub fn point_state(&self, x: &[f64; D], t: f64) -> PointState<D> {
+        let jets: [Jet<D>; D] = std::array::from_fn(|i| jet(&self.displacement[i], x, t));
+        let displacement = SVector::<f64, D>::from_fn(|i, _| jets[i].value);
+        let velocity = SVector::<f64, D>::from_fn(|i, _| jets[i].rate);
+        let displacement_gradient = SMatrix::<f64, D, D>::from_fn(|i, j| jets[i].gradient[j]);
+        let velocity_gradient = SMatrix::<f64, D, D>::from_fn(|i, j| jets[i].rate_gradient[j]);
+        let displacement_second = std::array::from_fn(|j| SMatrix::<f64, D, D>::from_fn(|i, k| jets[i].hessian[(k, j)]));
+        let velocity_second = std::array::from_fn(|j| SMatrix::<f64, D, D>::from_fn(|i, k| jets[i].rate_hessian[(k, j)]));
+        PointState {
+            displacement,
+            velocity,
+            displacement_gradient,
+            velocity_gradient,
+            displacement_second,
+            velocity_second,
+            damage: jet(&self.damage, x, t),
+        }
+    }
+
+    /// σ = 𝒜ε(u̇) + G(ε(u), β) at (x, t) (2.1).
+    pub fn stress(&self, laws: &Laws<D>, state: &PointState<D>) -> Tensor<D> {
+        laws.viscosity.stress(&symmetric(&state.velocity_gradient))
+            + laws.elasticity.stress(&symmetric(&state.displacement_gradient), state.damage.value)
+    }
+
+    /// f0 = −Div σ by the chain rule: ∂_j σ = 𝒜'(ε(u̇))[∂_j ε(u̇)] + ∂_ε G[∂_j ε(u)] + ∂_β G ∂_j β.
+    pub fn body_force(&self, laws: &Laws<D>, x: &[f64; D], t: f64) -> [f64; D] {
+        let state = self.point_state(x, t);
+        let rate = symmetric(&state.velocity_gradient);
+        let strain = symmetric(&state.displacement_gradient);
+        let beta = state.damage.value;
+        let damage_slope = laws.elasticity.damage_derivative(&strain, beta);
+        let mut divergence = SVector::<f64, D>::zeros();
+        for j in 0..D {
+            let d_sigma = laws.viscosity.tangent(&rate, &symmetric(&state.velocity_second[j]))
+                + laws.elasticity.strain_derivative(&strain, beta, &symmetric(&state.displacement_second[j]))
+                + damage_slope * state.damage.gradient[j];
+            for i in 0..D {
+                divergence[i] += d_sigma[(i, j)];
+            }
+        }
+        std::array::from_fn(|i| -divergence[i])
+    }
+
+    /// f2 = σν on Γ2 (2.6).
+    pub fn traction(&self, laws: &Laws<D>, x: &[f64; D], t: f64, normal: &[f64; D]) -> [f64; D] {
+        let state = self.point_state(x, t);
+        let sigma_n = self.stress(laws, &state) * SVector::<f64, D>::from_column_slice(normal);
+        std::array::from_fn(|i| sigma_n[i])
+    }
+
+    /// The friction direction ξ̂ of SPEC §4: u̇_τ/|u̇_τ| where the body slips, else the stick field ξ_τ.
+    pub fn friction_direction(&self, state: &PointState<D>, x: &[f64; D], t: f64, normal: &SVector<f64, D>) -> SVector<f64, D> {
+        let slip = state.velocity - normal * state.velocity.dot(normal);
+        let speed = slip.norm();
+        if speed > 0.0 {
+            slip / speed
+        } else {
+            let xi = SVector::<f64, D>::from_fn(|i, _| value(&self.stick_traction[i], x, t));
+            xi - normal * xi.dot(normal)
+        }
+    }
+
+    /// Penetration r = u_ν − g at a point of Γ3.
+    pub fn penetration(&self, state: &PointState<D>, x: &[f64; D], normal: &SVector<f64, D>) -> f64 {
+        state.displacement.dot(normal) - value(&self.gap, x, 0.0)
+    }
+
+    /// f3 = σν + p_ν(u_ν − g) ν + p_τ(u_ν − g) ξ̂ on Γ3 (SPEC §4).
+    pub fn contact_traction(&self, laws: &Laws<D>, x: &[f64; D], t: f64, normal: &[f64; D]) -> [f64; D] {
+        let state = self.point_state(x, t);
+        let nu = SVector::<f64, D>::from_column_slice(normal);
+        let r = self.penetration(&state, x, &nu);
+        let f3 = self.stress(laws, &state) * nu
+            + nu * laws.contact.normal_pressure(r)
+            + self.friction_direction(&state, x, t, &nu) * laws.contact.friction_bound(r);
+        std::array::from_fn(|i| f3[i])
+    }
+
+    /// q = β̇ − κΔβ + η − φ(ε(u), β) (SPEC §4).
+    pub fn damage_supply(&self, laws: &Laws<D>, x: &[f64; D], t: f64) -> f64 {
+        let state = self.point_state(x, t);
+        let strain = symmetric(&state.displacement_gradient);
+        state.damage.rate - laws.damage_diffusion * state.damage.hessian.trace() + value(&self.damage_multiplier, x, t)
+            - laws.damage_source.source(&strain, state.damage.value)
+    }
+
+    /// κ ∂β/∂ν on Γ (Neumann datum of the damage equation).
+    pub fn damage_flux(&self, laws: &Laws<D>, x: &[f64; D], t: f64, normal: &[f64; D]) -> f64 {
+        let (_, gradient) = value_gradient(&self.damage, x, t);
+        laws.damage_diffusion * gradient.dot(&SVector::<f64, D>::from_column_slice(normal))
+    }
+}
