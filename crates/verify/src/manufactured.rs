@@ -117,8 +117,10 @@ pub struct PointState<const D: usize> {
     pub displacement_second: [SMatrix<f64, D, D>; D],
     /// ∂_j ∇u̇.
     pub velocity_second: [SMatrix<f64, D, D>; D],
-    /// Jet of β.
-    pub damage: Jet<D>,
+    /// β.
+    pub damage: f64,
+    /// ∇β.
+    pub damage_gradient: SVector<f64, D>,
 }
 
 fn symmetric<const D: usize>(m: &SMatrix<f64, D, D>) -> Tensor<D> {
@@ -135,6 +137,7 @@ impl<const D: usize> ExactSolution<D> {
         let velocity_gradient = SMatrix::<f64, D, D>::from_fn(|i, j| jets[i].rate_gradient[j]);
         let displacement_second = std::array::from_fn(|j| SMatrix::<f64, D, D>::from_fn(|i, k| jets[i].hessian[(k, j)]));
         let velocity_second = std::array::from_fn(|j| SMatrix::<f64, D, D>::from_fn(|i, k| jets[i].rate_hessian[(k, j)]));
+        let (damage, damage_gradient) = value_gradient(&self.damage, x, t);
         PointState {
             displacement,
             velocity,
@@ -142,14 +145,15 @@ impl<const D: usize> ExactSolution<D> {
             velocity_gradient,
             displacement_second,
             velocity_second,
-            damage: jet(&self.damage, x, t),
+            damage,
+            damage_gradient,
         }
     }
 
     /// σ = 𝒜ε(u̇) + G(ε(u), β) at (x, t) (2.1).
     pub fn stress(&self, laws: &Laws<D>, state: &PointState<D>) -> Tensor<D> {
         laws.viscosity.stress(&symmetric(&state.velocity_gradient))
-            + laws.elasticity.stress(&symmetric(&state.displacement_gradient), state.damage.value)
+            + laws.elasticity.stress(&symmetric(&state.displacement_gradient), state.damage)
     }
 
     /// f0 = −Div σ by the chain rule: ∂_j σ = 𝒜'(ε(u̇))[∂_j ε(u̇)] + ∂_ε G[∂_j ε(u)] + ∂_β G ∂_j β.
@@ -157,13 +161,13 @@ impl<const D: usize> ExactSolution<D> {
         let state = self.point_state(x, t);
         let rate = symmetric(&state.velocity_gradient);
         let strain = symmetric(&state.displacement_gradient);
-        let beta = state.damage.value;
+        let beta = state.damage;
         let damage_slope = laws.elasticity.damage_derivative(&strain, beta);
         let mut divergence = SVector::<f64, D>::zeros();
         for j in 0..D {
             let d_sigma = laws.viscosity.tangent(&rate, &symmetric(&state.velocity_second[j]))
                 + laws.elasticity.strain_derivative(&strain, beta, &symmetric(&state.displacement_second[j]))
-                + damage_slope * state.damage.gradient[j];
+                + damage_slope * state.damage_gradient[j];
             for i in 0..D {
                 divergence[i] += d_sigma[(i, j)];
             }
@@ -206,12 +210,17 @@ impl<const D: usize> ExactSolution<D> {
         std::array::from_fn(|i| f3[i])
     }
 
-    /// q = β̇ − κΔβ + η − φ(ε(u), β) (SPEC §4).
+    /// q = β̇ − κΔβ + η − φ(ε(u), β) (SPEC §4). Needs only the jet of β and ∇u.
     pub fn damage_supply(&self, laws: &Laws<D>, x: &[f64; D], t: f64) -> f64 {
-        let state = self.point_state(x, t);
-        let strain = symmetric(&state.displacement_gradient);
-        state.damage.rate - laws.damage_diffusion * state.damage.hessian.trace() + value(&self.damage_multiplier, x, t)
-            - laws.damage_source.source(&strain, state.damage.value)
+        let damage = jet(&self.damage, x, t);
+        let mut gradient = SMatrix::<f64, D, D>::zeros();
+        for (i, component) in self.displacement.iter().enumerate() {
+            let (_, row) = value_gradient(component, x, t);
+            gradient.set_row(i, &row.transpose());
+        }
+        let strain = symmetric(&gradient);
+        damage.rate - laws.damage_diffusion * damage.hessian.trace() + value(&self.damage_multiplier, x, t)
+            - laws.damage_source.source(&strain, damage.value)
     }
 
     /// κ ∂β/∂ν on Γ (Neumann datum of the damage equation).

@@ -1,0 +1,110 @@
+//! CI rate assertions: reduced convergence studies (coarser levels than the default CLI study)
+//! for l = 1, 2 and d = 2, 3 on the built-in cases with separation, stick and slip zones and an
+//! active damage bound. Each study must pass its verdict (observed least-squares rate ≥ expected
+//! − `RATE_TOLERANCE` for every component bounded by Theorem 5.2), every step's KKT residual
+//! must be below 1e-9, and case (b) must really show the three contact zones and the active bound.
+
+use verify::case::{parse_case_file, Case, LevelStudy, TimeStudy};
+use verify::cli::BUILT_IN_CASES;
+use verify::study::{level_study, time_study, StudyKind, StudyResult, RATE_TOLERANCE};
+
+fn case<const D: usize>(name: &str) -> Case<D> {
+    let (_, text) = BUILT_IN_CASES.iter().find(|(n, _)| *n == name).expect("built-in case");
+    Case::new(parse_case_file(text, name).unwrap(), name).unwrap()
+}
+
+fn assert_study(study: &StudyResult) {
+    for rate in &study.rates {
+        if let (Some(expected), Some(pass)) = (rate.expected, rate.pass) {
+            assert!(
+                pass && rate.least_squares >= expected - RATE_TOLERANCE,
+                "{}-study l={}: {} rate {:.3} < expected {:.2} − {RATE_TOLERANCE} (pairwise {:?})",
+                study.kind.name(),
+                study.degree,
+                rate.component,
+                rate.least_squares,
+                expected,
+                rate.pairwise
+            );
+        }
+    }
+    for run in &study.runs {
+        assert!(
+            run.stats.max_velocity_kkt < 1e-9 && run.stats.max_damage_kkt < 1e-9,
+            "KKT residuals {:e} / {:e} at cells {} steps {}",
+            run.stats.max_velocity_kkt,
+            run.stats.max_damage_kkt,
+            run.cells,
+            run.steps
+        );
+    }
+    // the three contact zones and the active damage bound occurred in the finest run of the
+    // mesh studies (the k-studies run on one coarse mesh, which need not resolve the zones)
+    if study.kind == StudyKind::K {
+        return;
+    }
+    let stats = &study.runs.last().unwrap().stats;
+    assert!(
+        stats.steps_with_separation > 0 && stats.steps_with_stick > 0 && stats.steps_with_slip > 0,
+        "zones not all seen: {stats:?}"
+    );
+    assert!(stats.steps_with_upper_bound > 0, "damage bound β = 1 never active: {stats:?}");
+}
+
+fn levels(cells: &[usize], steps: &[usize]) -> LevelStudy {
+    LevelStudy {
+        cells: cells.to_vec(),
+        steps: steps.to_vec(),
+    }
+}
+
+#[test]
+fn rates_2d_order1() {
+    let case = case::<2>("zones2d");
+    assert_study(&level_study(&case, 1, StudyKind::H, &levels(&[4, 8, 16], &[2, 8, 32])).unwrap());
+    assert_study(&level_study(&case, 1, StudyKind::Diagonal, &levels(&[4, 8, 16], &[2, 4, 8])).unwrap());
+    let k = TimeStudy {
+        cells: 16,
+        steps: vec![4, 8, 16],
+        reference_steps: 64,
+    };
+    assert_study(&time_study(&case, 1, &k).unwrap());
+}
+
+#[test]
+fn rates_2d_order2() {
+    let case = case::<2>("zones2d");
+    assert_study(&level_study(&case, 2, StudyKind::H, &levels(&[2, 4, 8], &[4, 16, 64])).unwrap());
+    assert_study(&level_study(&case, 2, StudyKind::Diagonal, &levels(&[2, 4, 8], &[2, 6, 16])).unwrap());
+    let k = TimeStudy {
+        cells: 8,
+        steps: vec![4, 8, 16],
+        reference_steps: 64,
+    };
+    assert_study(&time_study(&case, 2, &k).unwrap());
+}
+
+#[test]
+fn rates_3d_order1() {
+    let case = case::<3>("zones3d");
+    assert_study(&level_study(&case, 1, StudyKind::H, &levels(&[3, 6], &[2, 8])).unwrap());
+    assert_study(&level_study(&case, 1, StudyKind::Diagonal, &levels(&[3, 6], &[2, 4])).unwrap());
+    let k = TimeStudy {
+        cells: 3,
+        steps: vec![16, 32, 64],
+        reference_steps: 256,
+    };
+    assert_study(&time_study(&case, 1, &k).unwrap());
+}
+
+#[test]
+fn rates_3d_order2() {
+    let case = case::<3>("zones3d");
+    assert_study(&level_study(&case, 2, StudyKind::H, &levels(&[1, 2, 4], &[4, 16, 64])).unwrap());
+    let k = TimeStudy {
+        cells: 2,
+        steps: vec![32, 64, 128],
+        reference_steps: 512,
+    };
+    assert_study(&time_study(&case, 2, &k).unwrap());
+}
