@@ -14,7 +14,10 @@ use verify::manufactured::{jet, value, value_gradient};
 struct Rng(u64);
 impl Rng {
     fn uniform(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((self.0 >> 11) as f64) / ((1u64 << 53) as f64)
     }
 }
@@ -57,7 +60,11 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
         }
         let f0 = exact.body_force(laws, &x, t);
         for i in 0..D {
-            assert!((divergence[i] + f0[i]).abs() < 1e-6 * (1.0 + f0[i].abs()), "{name}: Div σ + f0 = {} at {x:?}", divergence[i] + f0[i]);
+            assert!(
+                (divergence[i] + f0[i]).abs() < 1e-6 * (1.0 + f0[i].abs()),
+                "{name}: Div σ + f0 = {} at {x:?}",
+                divergence[i] + f0[i]
+            );
         }
         // (2.2) with q: β̇ − κΔβ + η = φ + q, Δβ by central differences of ∇β
         let mut laplacian = 0.0;
@@ -65,7 +72,9 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
             let (mut plus, mut minus) = (x, x);
             plus[j] += h;
             minus[j] -= h;
-            laplacian += (value_gradient(&exact.damage, &plus, t).1[j] - value_gradient(&exact.damage, &minus, t).1[j]) / (2.0 * h);
+            laplacian += (value_gradient(&exact.damage, &plus, t).1[j]
+                - value_gradient(&exact.damage, &minus, t).1[j])
+                / (2.0 * h);
         }
         let beta = jet(&exact.damage, &x, t);
         let state = exact.point_state(&x, t);
@@ -74,7 +83,10 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
         let residual = beta.rate - laws.damage_diffusion * laplacian + eta
             - laws.damage_source.source(&strain, beta.value)
             - exact.damage_supply(laws, &x, t);
-        assert!(residual.abs() < 1e-6, "{name}: damage equation residual {residual:e} at {x:?}");
+        assert!(
+            residual.abs() < 1e-6,
+            "{name}: damage equation residual {residual:e} at {x:?}"
+        );
         // η ∈ ∂ψ_K(β)
         if beta.value >= 1.0 {
             assert!(eta >= 0.0);
@@ -86,7 +98,9 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
         }
     }
     // (2.7)–(2.8) with f3 on Γ3: r = σν − f3 satisfies r_ν = −p_ν and −r_τ ∈ p_τ ∂|·|(u̇_τ)
-    let contact_axis = (0..D).find(|&a| case.sides[a][0] == contact_damage::mesh::BoundaryPart::Contact).unwrap();
+    let contact_axis = (0..D)
+        .find(|&a| case.sides[a][0] == contact_damage::mesh::BoundaryPart::Contact)
+        .unwrap();
     let mut normal = [0.0; D];
     normal[contact_axis] = -1.0;
     let nu = SVector::<f64, D>::from_column_slice(&normal);
@@ -96,12 +110,19 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
         let t = final_time * rng.uniform();
         let state = exact.point_state(&x, t);
         let sigma_n = exact.stress(laws, &state) * nu;
-        let f3 = SVector::<f64, D>::from_column_slice(&exact.contact_traction(laws, &x, t, &normal));
+        let f3 =
+            SVector::<f64, D>::from_column_slice(&exact.contact_traction(laws, &x, t, &normal));
         let r = sigma_n - f3;
         let penetration = exact.penetration(&state, &x, &nu);
-        let (p_normal, p_friction) = (laws.contact.normal_pressure(penetration), laws.contact.friction_bound(penetration));
+        let (p_normal, p_friction) = (
+            laws.contact.normal_pressure(penetration),
+            laws.contact.friction_bound(penetration),
+        );
         let scale = 1.0 + sigma_n.norm();
-        assert!((r.dot(&nu) + p_normal).abs() < 1e-12 * scale, "{name}: r_ν ≠ −p_ν");
+        assert!(
+            (r.dot(&nu) + p_normal).abs() < 1e-12 * scale,
+            "{name}: r_ν ≠ −p_ν"
+        );
         let r_tangential = r - nu * r.dot(&nu);
         let slip = state.velocity - nu * state.velocity.dot(&nu);
         if penetration <= 0.0 {
@@ -109,10 +130,16 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
             assert!(r_tangential.norm() < 1e-12 * scale);
         } else if slip.norm() > 0.0 {
             zones.slip += 1;
-            assert!((-r_tangential - slip / slip.norm() * p_friction).norm() < 1e-12 * scale, "{name}: slip law");
+            assert!(
+                (-r_tangential - slip / slip.norm() * p_friction).norm() < 1e-12 * scale,
+                "{name}: slip law"
+            );
         } else {
             zones.stick += 1;
-            assert!(r_tangential.norm() < p_friction, "{name}: stick needs |σ_τ| < p_τ strictly");
+            assert!(
+                r_tangential.norm() < p_friction,
+                "{name}: stick needs |σ_τ| < p_τ strictly"
+            );
         }
     }
     zones
@@ -121,13 +148,19 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
 #[test]
 fn slip2d_satisfies_its_strong_form() {
     let zones = check_strong_form::<2>("slip2d");
-    assert!(zones.slip > 0 && zones.stick == 0 && zones.bound_active == 0, "{zones:?}");
+    assert!(
+        zones.slip > 0 && zones.stick == 0 && zones.bound_active == 0,
+        "{zones:?}"
+    );
 }
 
 #[test]
 fn zones2d_satisfies_its_strong_form_with_all_zones() {
     let zones = check_strong_form::<2>("zones2d");
-    assert!(zones.separation > 0 && zones.stick > 0 && zones.slip > 0 && zones.bound_active > 0, "{zones:?}");
+    assert!(
+        zones.separation > 0 && zones.stick > 0 && zones.slip > 0 && zones.bound_active > 0,
+        "{zones:?}"
+    );
 }
 
 #[test]
@@ -139,14 +172,22 @@ fn slip3d_satisfies_its_strong_form() {
 #[test]
 fn zones3d_satisfies_its_strong_form_with_all_zones() {
     let zones = check_strong_form::<3>("zones3d");
-    assert!(zones.separation > 0 && zones.stick > 0 && zones.slip > 0 && zones.bound_active > 0, "{zones:?}");
+    assert!(
+        zones.separation > 0 && zones.stick > 0 && zones.slip > 0 && zones.bound_active > 0,
+        "{zones:?}"
+    );
 }
 
 fn error_of(replace: &str, with: &str) -> String {
     let text = include_str!("../verification/zones2d.toml");
-    assert!(text.contains(replace), "test setup: `{replace}` not in the case file");
+    assert!(
+        text.contains(replace),
+        "test setup: `{replace}` not in the case file"
+    );
     let text = text.replacen(replace, with, 1);
-    match parse_case_file(&text, "my_case.toml").and_then(|file| Case::<2>::new(file, "my_case.toml")) {
+    match parse_case_file(&text, "my_case.toml")
+        .and_then(|file| Case::<2>::new(file, "my_case.toml"))
+    {
         Ok(_) => panic!("the case with `{with}` should be rejected"),
         Err(e) => e.to_string(),
     }
@@ -155,36 +196,60 @@ fn error_of(replace: &str, with: &str) -> String {
 #[test]
 fn case_reader_reports_syntax_errors_with_position() {
     let message = error_of("final_time = 1.0", "final_time = = 1.0");
-    assert!(message.contains("my_case.toml") && message.contains("line 13, column 14"), "{message}");
+    assert!(
+        message.contains("my_case.toml") && message.contains("line 13, column 14"),
+        "{message}"
+    );
 }
 
 #[test]
 fn case_reader_rejects_unknown_variable() {
     let message = error_of("\"0.01\"", "\"0.01*w\"");
-    assert!(message.contains("exact.gap") && message.contains("unknown variable `w`"), "{message}");
+    assert!(
+        message.contains("exact.gap") && message.contains("unknown variable `w`"),
+        "{message}"
+    );
 }
 
 #[test]
 fn case_reader_rejects_nonzero_displacement_on_clamped_side() {
-    let message = error_of("\"-(0.1 + 0.1*t)*x^2*(1-y)\"", "\"-(0.1 + 0.1*t)*(x+0.1)^2*(1-y)\"");
-    assert!(message.contains("exact.u[1]") && message.contains("Γ1"), "{message}");
+    let message = error_of(
+        "\"-(0.1 + 0.1*t)*x^2*(1-y)\"",
+        "\"-(0.1 + 0.1*t)*(x+0.1)^2*(1-y)\"",
+    );
+    assert!(
+        message.contains("exact.u[1]") && message.contains("Γ1"),
+        "{message}"
+    );
 }
 
 #[test]
 fn case_reader_rejects_damage_outside_unit_interval() {
     let message = error_of("beta = \"1 - (0.3", "beta = \"1.2 - (0.3");
-    assert!(message.contains("exact.beta") && message.contains("outside [0, 1]"), "{message}");
+    assert!(
+        message.contains("exact.beta") && message.contains("outside [0, 1]"),
+        "{message}"
+    );
 }
 
 #[test]
 fn case_reader_rejects_stick_traction_of_unit_size() {
-    let message = error_of("stick_traction = [\"0.5\", \"0\"]", "stick_traction = [\"1.0\", \"0\"]");
-    assert!(message.contains("exact.stick_traction") && message.contains("≥ 1"), "{message}");
+    let message = error_of(
+        "stick_traction = [\"0.5\", \"0\"]",
+        "stick_traction = [\"1.0\", \"0\"]",
+    );
+    assert!(
+        message.contains("exact.stick_traction") && message.contains("≥ 1"),
+        "{message}"
+    );
 }
 
 #[test]
 fn case_reader_rejects_multiplier_outside_subdifferential() {
-    let message = error_of("damage_multiplier = \"0.2*max(0, x_bound - x)\"", "damage_multiplier = \"0.1\"");
+    let message = error_of(
+        "damage_multiplier = \"0.2*max(0, x_bound - x)\"",
+        "damage_multiplier = \"0.1\"",
+    );
     assert!(message.contains("exact.damage_multiplier"), "{message}");
 }
 

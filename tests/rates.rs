@@ -9,7 +9,10 @@ use verify::cli::BUILT_IN_CASES;
 use verify::study::{level_study, time_study, StudyKind, StudyResult, RATE_TOLERANCE};
 
 fn case<const D: usize>(name: &str) -> Case<D> {
-    let (_, text) = BUILT_IN_CASES.iter().find(|(n, _)| *n == name).expect("built-in case");
+    let (_, text) = BUILT_IN_CASES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .expect("built-in case");
     Case::new(parse_case_file(text, name).unwrap(), name).unwrap()
 }
 
@@ -48,7 +51,10 @@ fn assert_study(study: &StudyResult) {
         stats.steps_with_separation > 0 && stats.steps_with_stick > 0 && stats.steps_with_slip > 0,
         "zones not all seen: {stats:?}"
     );
-    assert!(stats.steps_with_upper_bound > 0, "damage bound β = 1 never active: {stats:?}");
+    assert!(
+        stats.steps_with_upper_bound > 0,
+        "damage bound β = 1 never active: {stats:?}"
+    );
 }
 
 fn levels(cells: &[usize], steps: &[usize]) -> LevelStudy {
@@ -62,7 +68,15 @@ fn levels(cells: &[usize], steps: &[usize]) -> LevelStudy {
 fn rates_2d_order1() {
     let case = case::<2>("zones2d");
     assert_study(&level_study(&case, 1, StudyKind::H, &levels(&[4, 8, 16], &[2, 8, 32])).unwrap());
-    assert_study(&level_study(&case, 1, StudyKind::Diagonal, &levels(&[4, 8, 16], &[2, 4, 8])).unwrap());
+    assert_study(
+        &level_study(
+            &case,
+            1,
+            StudyKind::Diagonal,
+            &levels(&[4, 8, 16], &[2, 4, 8]),
+        )
+        .unwrap(),
+    );
     let k = TimeStudy {
         cells: 16,
         steps: vec![4, 8, 16],
@@ -75,7 +89,15 @@ fn rates_2d_order1() {
 fn rates_2d_order2() {
     let case = case::<2>("zones2d");
     assert_study(&level_study(&case, 2, StudyKind::H, &levels(&[2, 4, 8], &[4, 16, 64])).unwrap());
-    assert_study(&level_study(&case, 2, StudyKind::Diagonal, &levels(&[2, 4, 8], &[2, 6, 16])).unwrap());
+    assert_study(
+        &level_study(
+            &case,
+            2,
+            StudyKind::Diagonal,
+            &levels(&[2, 4, 8], &[2, 6, 16]),
+        )
+        .unwrap(),
+    );
     let k = TimeStudy {
         cells: 8,
         steps: vec![4, 8, 16],

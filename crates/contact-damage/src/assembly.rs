@@ -36,7 +36,11 @@ pub fn basis_strain<const D: usize>(gradient: &SVector<f64, D>, component: usize
 
 /// Strain ε(u) at point q of cell c of a vector field with node-major nodal values.
 #[inline]
-pub fn field_strain<const D: usize>(nodes: &[usize], gradients: &[SVector<f64, D>], nodal: &[f64]) -> Tensor<D> {
+pub fn field_strain<const D: usize>(
+    nodes: &[usize],
+    gradients: &[SVector<f64, D>],
+    nodal: &[f64],
+) -> Tensor<D> {
     let mut grad = Tensor::<D>::zeros();
     for (a, &node) in nodes.iter().enumerate() {
         for i in 0..D {
@@ -110,7 +114,9 @@ pub fn damage_element_matrix<const D: usize>(
         let values = &tabulation.values[q * n..(q + 1) * n];
         for a in 0..n {
             for b in 0..n {
-                out[a * n + b] += weight * (mass_coefficient * values[a] * values[b] + diffusion * grads[a].dot(&grads[b]));
+                out[a * n + b] += weight
+                    * (mass_coefficient * values[a] * values[b]
+                        + diffusion * grads[a].dot(&grads[b]));
             }
         }
     }
@@ -118,7 +124,11 @@ pub fn damage_element_matrix<const D: usize>(
 
 /// Computes per-cell local vectors in parallel with `kernel(cell, local)` and sums them into a
 /// global vector of `components` values per node (node-major).
-pub fn assemble_cell_vector<const D: usize, K>(space: &LagrangeSpace<D>, components: usize, kernel: K) -> Vec<f64>
+pub fn assemble_cell_vector<const D: usize, K>(
+    space: &LagrangeSpace<D>,
+    components: usize,
+    kernel: K,
+) -> Vec<f64>
 where
     K: Fn(usize, &mut [f64]) + Sync,
 {
@@ -165,7 +175,8 @@ pub fn add_facet_integrals<const D: usize>(
         let measure = mesh.facet_measure(f);
         let vertices: Vec<[f64; D]> = mesh.facet(f).iter().map(|&v| mesh.vertex(v)).collect();
         for (bary, &weight) in rule.barycentric.iter().zip(&rule.weights) {
-            let x: [f64; D] = std::array::from_fn(|i| bary.iter().zip(&vertices).map(|(l, p)| l * p[i]).sum());
+            let x: [f64; D] =
+                std::array::from_fn(|i| bary.iter().zip(&vertices).map(|(l, p)| l * p[i]).sum());
             let xi = geometry.reference_point(&x);
             element.values(&xi, &mut values[..n]);
             data.fill(0.0);

@@ -86,12 +86,20 @@ impl<const D: usize> ContactNodes<D> {
                 normals[node] += normal * measure;
             }
             for (bary, &weight) in rule.barycentric.iter().zip(&rule.weights) {
-                let x: [f64; D] = std::array::from_fn(|i| bary.iter().zip(&vertices).map(|(l, p)| l * p[i]).sum());
+                let x: [f64; D] = std::array::from_fn(|i| {
+                    bary.iter().zip(&vertices).map(|(l, p)| l * p[i]).sum()
+                });
                 element.values(&geometry.reference_point(&x), &mut values[..n]);
                 for &node in space.facet_nodes(f) {
-                    let local = space.cell_nodes(cell).iter().position(|&m| m == node).ok_or_else(|| {
-                        Error::InvalidMesh(format!("facet {f} node {node} is not a node of its cell {cell}"))
-                    })?;
+                    let local = space
+                        .cell_nodes(cell)
+                        .iter()
+                        .position(|&m| m == node)
+                        .ok_or_else(|| {
+                            Error::InvalidMesh(format!(
+                                "facet {f} node {node} is not a node of its cell {cell}"
+                            ))
+                        })?;
                     weights[node] += weight * measure * values[local];
                 }
             }
@@ -117,7 +125,9 @@ impl<const D: usize> ContactNodes<D> {
             result.index_of_node[node] = Some(result.nodes.len());
             result.nodes.push(node);
             result.weights.push(weights[node]);
-            result.frames.push(frame_from_normal(&(normals[node] / norm)));
+            result
+                .frames
+                .push(frame_from_normal(&(normals[node] / norm)));
         }
         Ok(result)
     }
@@ -169,29 +179,48 @@ mod tests {
     fn nodal_weights_sum_to_contact_measure() {
         for degree in [1, 2] {
             let mesh = Arc::new(
-                Mesh::box_mesh([0.0, 0.0], [2.0, 1.0], [4, 3], [[Dirichlet, Neumann], [Contact, Neumann]]).unwrap(),
+                Mesh::box_mesh(
+                    [0.0, 0.0],
+                    [2.0, 1.0],
+                    [4, 3],
+                    [[Dirichlet, Neumann], [Contact, Neumann]],
+                )
+                .unwrap(),
             );
             let space = LagrangeSpace::new(mesh, degree).unwrap();
             let contact = ContactNodes::new(&space).unwrap();
             // the clamped corner node (0, 0) is excluded: its weight is h/2 (P1) or h/6 (P2) of the element
             let excluded = if degree == 1 { 0.25 } else { 0.5 / 6.0 };
             let total: f64 = contact.weights.iter().sum();
-            assert!((total - (2.0 - excluded)).abs() < 1e-13, "degree {degree}: {total}");
+            assert!(
+                (total - (2.0 - excluded)).abs() < 1e-13,
+                "degree {degree}: {total}"
+            );
             for k in 0..contact.len() {
                 assert!((contact.normal(k) - SVector::<f64, 2>::new(0.0, -1.0)).norm() < 1e-15);
             }
         }
         let cube = Arc::new(
-            Mesh::box_mesh([0.0; 3], [1.0; 3], [2, 2, 2], [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]])
-                .unwrap(),
+            Mesh::box_mesh(
+                [0.0; 3],
+                [1.0; 3],
+                [2, 2, 2],
+                [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]],
+            )
+            .unwrap(),
         );
         let space = LagrangeSpace::new(cube, 2).unwrap();
         let contact = ContactNodes::new(&space).unwrap();
         // P2 on triangles: vertex weights vanish, only edge midpoints carry weight
         for &node in &contact.nodes {
             let p = space.node(node);
-            let on_vertex = p.iter().all(|v| ((v * 2.0).round() - v * 2.0).abs() < 1e-12);
-            assert!(!on_vertex, "vertex node {node} at {p:?} should have zero weight");
+            let on_vertex = p
+                .iter()
+                .all(|v| ((v * 2.0).round() - v * 2.0).abs() < 1e-12);
+            assert!(
+                !on_vertex,
+                "vertex node {node} at {p:?} should have zero weight"
+            );
         }
     }
 }

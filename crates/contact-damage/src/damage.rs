@@ -39,11 +39,17 @@ pub fn assemble_damage_matrix<const D: usize>(
         }
     }
     let pattern = SparsityPattern::from_pairs(space.num_nodes(), &pairs)?;
-    let tabulation = Tabulation::cell_rule(space.element(), &QuadratureRule::<D>::simplex(2 * space.degree()));
+    let tabulation = Tabulation::cell_rule(
+        space.element(),
+        &QuadratureRule::<D>::simplex(2 * space.degree()),
+    );
     let mut values = vec![0.0; pairs.len()];
-    values.par_chunks_mut(n * n).enumerate().for_each(|(cell, out)| {
-        damage_element_matrix(space, &tabulation, cell, mass_coefficient, diffusion, out);
-    });
+    values
+        .par_chunks_mut(n * n)
+        .enumerate()
+        .for_each(|(cell, out)| {
+            damage_element_matrix(space, &tabulation, cell, mass_coefficient, diffusion, out);
+        });
     pattern.matrix(&values)
 }
 
@@ -67,9 +73,18 @@ pub struct DamageSolution {
 
 impl<const D: usize> DamageOperator<D> {
     /// Assembles M/k + κK and analyses it. Errors name κ or k when they are not positive.
-    pub fn new(space: Arc<LagrangeSpace<D>>, diffusion: f64, time_step: f64, settings: BoxQpSettings) -> Result<Self> {
+    pub fn new(
+        space: Arc<LagrangeSpace<D>>,
+        diffusion: f64,
+        time_step: f64,
+        settings: BoxQpSettings,
+    ) -> Result<Self> {
         if !(diffusion.is_finite() && diffusion > 0.0) {
-            return Err(Error::parameter("damage_diffusion", diffusion, "κ must be > 0 (2.2)"));
+            return Err(Error::parameter(
+                "damage_diffusion",
+                diffusion,
+                "κ must be > 0 (2.2)",
+            ));
         }
         if !(time_step.is_finite() && time_step > 0.0) {
             return Err(Error::parameter("time_step", time_step, "k must be > 0"));
@@ -107,8 +122,15 @@ impl<const D: usize> DamageOperator<D> {
             )));
         }
         let inertia = multiply(&self.mass, previous);
-        let rhs: Vec<f64> = inertia.iter().zip(source).map(|(m, s)| m / self.time_step + s).collect();
-        let mut damage = previous.iter().map(|b| b.clamp(0.0, 1.0)).collect::<Vec<_>>();
+        let rhs: Vec<f64> = inertia
+            .iter()
+            .zip(source)
+            .map(|(m, s)| m / self.time_step + s)
+            .collect();
+        let mut damage = previous
+            .iter()
+            .map(|b| b.clamp(0.0, 1.0))
+            .collect::<Vec<_>>();
         let lower = vec![0.0; n];
         let upper = vec![1.0; n];
         let stats = self.solver.solve(&rhs, &lower, &upper, &mut damage)?;

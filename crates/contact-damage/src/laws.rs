@@ -55,7 +55,8 @@ pub struct LinearViscosity {
 
 impl<const D: usize> Viscosity<D> for LinearViscosity {
     fn stress(&self, strain_rate: &Tensor<D>) -> Tensor<D> {
-        strain_rate * (2.0 * self.shear) + Tensor::<D>::identity() * (self.bulk * trace(strain_rate))
+        strain_rate * (2.0 * self.shear)
+            + Tensor::<D>::identity() * (self.bulk * trace(strain_rate))
     }
     fn tangent(&self, _strain_rate: &Tensor<D>, direction: &Tensor<D>) -> Tensor<D> {
         <Self as Viscosity<D>>::stress(self, direction)
@@ -81,7 +82,10 @@ impl<const D: usize> Viscosity<D> for LinearViscosity {
             return Err(Error::parameter(
                 "viscosity.bulk",
                 self.bulk,
-                format!("2η + dζ must be > 0 for 𝒜 to be strongly monotone (3.4); here η = {}", self.shear),
+                format!(
+                    "2η + dζ must be > 0 for 𝒜 to be strongly monotone (3.4); here η = {}",
+                    self.shear
+                ),
             ));
         }
         Ok(())
@@ -108,7 +112,8 @@ impl<const D: usize> Viscosity<D> for SaturatingViscosity {
     fn stress(&self, strain_rate: &Tensor<D>) -> Tensor<D> {
         let dev = deviator(strain_rate);
         let root = (1.0 + dev.norm_squared() / (self.rate_scale * self.rate_scale)).sqrt();
-        <LinearViscosity as Viscosity<D>>::stress(&self.linear, strain_rate) + dev * (self.extra_shear / root)
+        <LinearViscosity as Viscosity<D>>::stress(&self.linear, strain_rate)
+            + dev * (self.extra_shear / root)
     }
     fn tangent(&self, strain_rate: &Tensor<D>, direction: &Tensor<D>) -> Tensor<D> {
         let dev = deviator(strain_rate);
@@ -140,7 +145,11 @@ impl<const D: usize> Viscosity<D> for SaturatingViscosity {
             ));
         }
         if self.rate_scale <= 0.0 {
-            return Err(Error::parameter("viscosity.rate_scale", self.rate_scale, "ε₀ must be > 0"));
+            return Err(Error::parameter(
+                "viscosity.rate_scale",
+                self.rate_scale,
+                "ε₀ must be > 0",
+            ));
         }
         Ok(())
     }
@@ -154,7 +163,12 @@ pub trait Elasticity<const D: usize>: Send + Sync {
     /// G(ε, β).
     fn stress(&self, strain: &Tensor<D>, damage: f64) -> Tensor<D>;
     /// ∂G/∂ε (ε, β)[δε].
-    fn strain_derivative(&self, strain: &Tensor<D>, damage: f64, direction: &Tensor<D>) -> Tensor<D>;
+    fn strain_derivative(
+        &self,
+        strain: &Tensor<D>,
+        damage: f64,
+        direction: &Tensor<D>,
+    ) -> Tensor<D>;
     /// ∂G/∂β (ε, β).
     fn damage_derivative(&self, strain: &Tensor<D>, damage: f64) -> Tensor<D>;
     /// Checks the parameters against (3.5).
@@ -173,7 +187,8 @@ pub struct DamagedHooke {
 
 impl DamagedHooke {
     fn undamaged<const D: usize>(&self, strain: &Tensor<D>) -> Tensor<D> {
-        strain * (2.0 * self.shear_modulus) + Tensor::<D>::identity() * (self.lame_lambda * trace(strain))
+        strain * (2.0 * self.shear_modulus)
+            + Tensor::<D>::identity() * (self.lame_lambda * trace(strain))
     }
 }
 
@@ -181,7 +196,12 @@ impl<const D: usize> Elasticity<D> for DamagedHooke {
     fn stress(&self, strain: &Tensor<D>, damage: f64) -> Tensor<D> {
         self.undamaged(strain) * damage.clamp(0.0, 1.0)
     }
-    fn strain_derivative(&self, _strain: &Tensor<D>, damage: f64, direction: &Tensor<D>) -> Tensor<D> {
+    fn strain_derivative(
+        &self,
+        _strain: &Tensor<D>,
+        damage: f64,
+        direction: &Tensor<D>,
+    ) -> Tensor<D> {
         self.undamaged(direction) * damage.clamp(0.0, 1.0)
     }
     /// One-sided derivative from inside [0, 1] (the clamp is inactive on the closed interval).
@@ -196,7 +216,11 @@ impl<const D: usize> Elasticity<D> for DamagedHooke {
         check_finite("elasticity.shear_modulus", self.shear_modulus)?;
         check_finite("elasticity.lame_lambda", self.lame_lambda)?;
         if self.shear_modulus <= 0.0 {
-            return Err(Error::parameter("elasticity.shear_modulus", self.shear_modulus, "μ must be > 0"));
+            return Err(Error::parameter(
+                "elasticity.shear_modulus",
+                self.shear_modulus,
+                "μ must be > 0",
+            ));
         }
         if 2.0 * self.shear_modulus + D as f64 * self.lame_lambda <= 0.0 {
             return Err(Error::parameter(
@@ -240,7 +264,8 @@ pub struct TruncatedFremond {
 impl<const D: usize> DamageSource<D> for TruncatedFremond {
     fn source(&self, strain: &Tensor<D>, damage: f64) -> f64 {
         let beta_hat = damage.clamp(self.damage_floor, 1.0);
-        self.lambda_d * (1.0 - beta_hat) / beta_hat - 0.5 * strain.norm_squared().min(self.strain_energy_cap)
+        self.lambda_d * (1.0 - beta_hat) / beta_hat
+            - 0.5 * strain.norm_squared().min(self.strain_energy_cap)
             + self.lambda_w
     }
     fn validate(&self) -> Result<()> {
@@ -249,7 +274,11 @@ impl<const D: usize> DamageSource<D> for TruncatedFremond {
         check_finite("damage_source.damage_floor", self.damage_floor)?;
         check_finite("damage_source.strain_energy_cap", self.strain_energy_cap)?;
         if self.lambda_d < 0.0 {
-            return Err(Error::parameter("damage_source.lambda_d", self.lambda_d, "λ_D must be ≥ 0"));
+            return Err(Error::parameter(
+                "damage_source.lambda_d",
+                self.lambda_d,
+                "λ_D must be ≥ 0",
+            ));
         }
         if !(self.damage_floor > 0.0 && self.damage_floor <= 1.0) {
             return Err(Error::parameter(
@@ -284,7 +313,11 @@ where
         for beta in [0.0, 0.5, 1.0] {
             let value = (self.0)(&Tensor::<D>::zeros(), beta);
             if !value.is_finite() {
-                return Err(Error::parameter("damage_source(0, β)", beta, "user damage source is not finite"));
+                return Err(Error::parameter(
+                    "damage_source(0, β)",
+                    beta,
+                    "user damage source is not finite",
+                ));
             }
         }
         Ok(())
@@ -327,13 +360,25 @@ impl ContactLaw for NormalComplianceCoulomb {
         check_finite("contact.friction", self.friction)?;
         check_finite("contact.wear", self.wear)?;
         if self.stiffness <= 0.0 {
-            return Err(Error::parameter("contact.stiffness", self.stiffness, "c_ν must be > 0 (2.10)"));
+            return Err(Error::parameter(
+                "contact.stiffness",
+                self.stiffness,
+                "c_ν must be > 0 (2.10)",
+            ));
         }
         if self.friction < 0.0 {
-            return Err(Error::parameter("contact.friction", self.friction, "μ must be ≥ 0"));
+            return Err(Error::parameter(
+                "contact.friction",
+                self.friction,
+                "μ must be ≥ 0",
+            ));
         }
         if self.wear < 0.0 {
-            return Err(Error::parameter("contact.wear", self.wear, "δ must be ≥ 0 (2.12)"));
+            return Err(Error::parameter(
+                "contact.wear",
+                self.wear,
+                "δ must be ≥ 0 (2.12)",
+            ));
         }
         Ok(())
     }
@@ -351,14 +396,18 @@ mod tests {
     #[test]
     fn saturating_viscosity_tangent_matches_finite_differences() {
         let law = SaturatingViscosity {
-            linear: LinearViscosity { shear: 1.0, bulk: 0.5 },
+            linear: LinearViscosity {
+                shear: 1.0,
+                bulk: 0.5,
+            },
             extra_shear: 2.0,
             rate_scale: 0.3,
         };
         let eps = sample_tensor();
         let dir = Tensor::<3>::new(0.1, 0.2, 0.0, 0.2, -0.3, 0.4, 0.0, 0.4, 0.25);
         let h = 1e-6;
-        let fd = (Viscosity::<3>::stress(&law, &(eps + dir * h)) - Viscosity::<3>::stress(&law, &(eps - dir * h)))
+        let fd = (Viscosity::<3>::stress(&law, &(eps + dir * h))
+            - Viscosity::<3>::stress(&law, &(eps - dir * h)))
             / (2.0 * h);
         let exact = Viscosity::<3>::tangent(&law, &eps, &dir);
         assert!((fd - exact).norm() < 1e-8, "{fd} vs {exact}");
@@ -367,14 +416,18 @@ mod tests {
     #[test]
     fn viscosity_stress_is_gradient_of_potential() {
         let law = SaturatingViscosity {
-            linear: LinearViscosity { shear: 0.7, bulk: 0.2 },
+            linear: LinearViscosity {
+                shear: 0.7,
+                bulk: 0.2,
+            },
             extra_shear: 1.5,
             rate_scale: 0.2,
         };
         let eps = sample_tensor();
         let dir = Tensor::<3>::new(0.3, 0.1, -0.2, 0.1, 0.5, 0.0, -0.2, 0.0, -0.4);
         let h = 1e-6;
-        let fd = (Viscosity::<3>::potential(&law, &(eps + dir * h)) - Viscosity::<3>::potential(&law, &(eps - dir * h)))
+        let fd = (Viscosity::<3>::potential(&law, &(eps + dir * h))
+            - Viscosity::<3>::potential(&law, &(eps - dir * h)))
             / (2.0 * h);
         let exact = Viscosity::<3>::stress(&law, &eps).dot(&dir);
         assert!((fd - exact).abs() < 1e-8);
@@ -383,7 +436,10 @@ mod tests {
     #[test]
     fn saturating_viscosity_is_strongly_monotone() {
         let law = SaturatingViscosity {
-            linear: LinearViscosity { shear: 1.0, bulk: 0.0 },
+            linear: LinearViscosity {
+                shear: 1.0,
+                bulk: 0.0,
+            },
             extra_shear: 5.0,
             rate_scale: 0.1,
         };
@@ -396,17 +452,31 @@ mod tests {
 
     #[test]
     fn damaged_hooke_clamps_damage() {
-        let law = DamagedHooke { shear_modulus: 1.0, lame_lambda: 2.0 };
+        let law = DamagedHooke {
+            shear_modulus: 1.0,
+            lame_lambda: 2.0,
+        };
         let eps = Tensor::<2>::new(0.1, 0.2, 0.2, -0.3);
-        assert_eq!(Elasticity::<2>::stress(&law, &eps, 1.7), Elasticity::<2>::stress(&law, &eps, 1.0));
-        assert_eq!(Elasticity::<2>::stress(&law, &eps, -0.5), Tensor::<2>::zeros());
+        assert_eq!(
+            Elasticity::<2>::stress(&law, &eps, 1.7),
+            Elasticity::<2>::stress(&law, &eps, 1.0)
+        );
+        assert_eq!(
+            Elasticity::<2>::stress(&law, &eps, -0.5),
+            Tensor::<2>::zeros()
+        );
         let half = Elasticity::<2>::stress(&law, &eps, 0.5);
         assert!((half - Elasticity::<2>::damage_derivative(&law, &eps, 0.5) * 0.5).norm() < 1e-15);
     }
 
     #[test]
     fn truncated_fremond_matches_fremond_inside_and_is_bounded_outside() {
-        let law = TruncatedFremond { lambda_d: 0.5, lambda_w: 0.1, damage_floor: 0.1, strain_energy_cap: 1.0 };
+        let law = TruncatedFremond {
+            lambda_d: 0.5,
+            lambda_w: 0.1,
+            damage_floor: 0.1,
+            strain_energy_cap: 1.0,
+        };
         let eps = Tensor::<2>::new(0.1, 0.0, 0.0, 0.2);
         let beta = 0.4;
         let fremond = 0.5 * (1.0 - beta) / beta - 0.5 * eps.norm_squared() + 0.1;
@@ -419,12 +489,19 @@ mod tests {
 
     #[test]
     fn contact_bounds_follow_2_10_to_2_12() {
-        let coulomb = NormalComplianceCoulomb { stiffness: 10.0, friction: 0.3, wear: 0.0 };
+        let coulomb = NormalComplianceCoulomb {
+            stiffness: 10.0,
+            friction: 0.3,
+            wear: 0.0,
+        };
         assert_eq!(coulomb.normal_pressure(-0.1), 0.0);
         assert_eq!(coulomb.friction_bound(-0.1), 0.0);
         assert!((coulomb.normal_pressure(0.2) - 2.0).abs() < 1e-15);
         assert!((coulomb.friction_bound(0.2) - 0.6).abs() < 1e-15);
-        let wear = NormalComplianceCoulomb { wear: 0.25, ..coulomb };
+        let wear = NormalComplianceCoulomb {
+            wear: 0.25,
+            ..coulomb
+        };
         assert!((wear.friction_bound(0.2) - 0.6 * 0.5).abs() < 1e-15);
         assert_eq!(wear.friction_bound(1.0), 0.0);
     }
@@ -432,20 +509,55 @@ mod tests {
     #[test]
     fn invalid_parameters_are_named() {
         let message = |e: Error| e.to_string();
-        let err = Viscosity::<2>::validate(&LinearViscosity { shear: 0.0, bulk: 1.0 }).unwrap_err();
+        let err = Viscosity::<2>::validate(&LinearViscosity {
+            shear: 0.0,
+            bulk: 1.0,
+        })
+        .unwrap_err();
         assert!(message(err).contains("viscosity.shear"));
-        let err = Viscosity::<3>::validate(&LinearViscosity { shear: 1.0, bulk: -1.0 }).unwrap_err();
+        let err = Viscosity::<3>::validate(&LinearViscosity {
+            shear: 1.0,
+            bulk: -1.0,
+        })
+        .unwrap_err();
         assert!(message(err).contains("viscosity.bulk"));
-        let err = NormalComplianceCoulomb { stiffness: -1.0, friction: 0.1, wear: 0.0 }.validate().unwrap_err();
+        let err = NormalComplianceCoulomb {
+            stiffness: -1.0,
+            friction: 0.1,
+            wear: 0.0,
+        }
+        .validate()
+        .unwrap_err();
         assert!(message(err).contains("contact.stiffness"));
-        let err = NormalComplianceCoulomb { stiffness: 1.0, friction: -0.1, wear: 0.0 }.validate().unwrap_err();
+        let err = NormalComplianceCoulomb {
+            stiffness: 1.0,
+            friction: -0.1,
+            wear: 0.0,
+        }
+        .validate()
+        .unwrap_err();
         assert!(message(err).contains("contact.friction"));
-        let err = NormalComplianceCoulomb { stiffness: 1.0, friction: 0.1, wear: -1.0 }.validate().unwrap_err();
+        let err = NormalComplianceCoulomb {
+            stiffness: 1.0,
+            friction: 0.1,
+            wear: -1.0,
+        }
+        .validate()
+        .unwrap_err();
         assert!(message(err).contains("contact.wear"));
-        let law = TruncatedFremond { lambda_d: 1.0, lambda_w: 0.0, damage_floor: 0.0, strain_energy_cap: 1.0 };
+        let law = TruncatedFremond {
+            lambda_d: 1.0,
+            lambda_w: 0.0,
+            damage_floor: 0.0,
+            strain_energy_cap: 1.0,
+        };
         let err = DamageSource::<2>::validate(&law).unwrap_err();
         assert!(message(err).contains("damage_floor"));
-        let err = Elasticity::<2>::validate(&DamagedHooke { shear_modulus: 1.0, lame_lambda: f64::NAN }).unwrap_err();
+        let err = Elasticity::<2>::validate(&DamagedHooke {
+            shear_modulus: 1.0,
+            lame_lambda: f64::NAN,
+        })
+        .unwrap_err();
         assert!(message(err).contains("lame_lambda"));
     }
 }

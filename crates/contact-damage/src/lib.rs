@@ -11,6 +11,46 @@
 //! Modules, one concept each: [`mesh`], [`quadrature`], [`element`], [`space`], [`assembly`],
 //! [`linalg`], [`laws`], [`contact`], [`friction`], [`velocity`], [`obstacle`], [`damage`],
 //! [`scheme`].
+//!
+//! ```
+//! use contact_damage::laws::{DamagedHooke, LinearViscosity, NormalComplianceCoulomb, TruncatedFremond};
+//! use contact_damage::mesh::{BoundaryPart::*, Mesh};
+//! use contact_damage::scheme::{Data, Model, Problem, SchemeSettings, Simulation};
+//! use std::sync::Arc;
+//!
+//! // unit square, clamped at x = 0, foundation below y = 0, traction-free elsewhere
+//! let mesh = Mesh::box_mesh([0.0, 0.0], [1.0, 1.0], [8, 8], [[Dirichlet, Neumann], [Contact, Neumann]])?;
+//! let model = Model {
+//!     viscosity: Arc::new(LinearViscosity { shear: 1.0, bulk: 0.5 }),
+//!     elasticity: Arc::new(DamagedHooke { shear_modulus: 1.0, lame_lambda: 1.0 }),
+//!     damage_source: Arc::new(TruncatedFremond { lambda_d: 0.1, lambda_w: 0.05, damage_floor: 0.1, strain_energy_cap: 10.0 }),
+//!     contact: Arc::new(NormalComplianceCoulomb { stiffness: 10.0, friction: 0.4, wear: 0.0 }),
+//!     damage_diffusion: 0.1,
+//! };
+//! let data = Data {
+//!     // the top side is pressed down and pulled sideways
+//!     traction: Some(Arc::new(|x: &[f64; 2], t: f64, _normal: &[f64; 2]| {
+//!         if x[1] > 1.0 - 1e-12 { [0.3 * t, -0.5] } else { [0.0, 0.0] }
+//!     })),
+//!     body_force: None,
+//!     contact_traction: None,
+//!     damage_supply: None,
+//!     damage_flux: None,
+//!     gap: Arc::new(|_| 0.0),
+//!     initial_displacement: Arc::new(|_| [0.0, 0.0]),
+//!     initial_damage: Arc::new(|_| 1.0),
+//! };
+//! let problem = Problem { mesh: Arc::new(mesh), degree: 1, model, data, final_time: 1.0, steps: 10, settings: SchemeSettings::default() };
+//! let mut simulation = Simulation::new(problem)?;
+//! let summary = simulation.run(|report| {
+//!     // every step is solved exactly: KKT residuals far below the discretization error
+//!     assert!(report.velocity_stats.kkt_residual <= 1e-10 && report.damage_stats.kkt_residual <= 1e-12);
+//!     Ok(())
+//! })?;
+//! assert_eq!(summary.steps, 10);
+//! assert!(summary.steps_with_status[1] + summary.steps_with_status[2] > 0, "the body touches the foundation");
+//! # Ok::<(), contact_damage::Error>(())
+//! ```
 
 pub mod assembly;
 pub mod contact;
@@ -28,3 +68,8 @@ pub mod space;
 pub mod velocity;
 
 pub use error::{Error, Result};
+
+/// The code blocks of the README run as doctests.
+#[cfg(doctest)]
+#[doc = include_str!("../../../README.md")]
+pub struct ReadmeDoctests;

@@ -21,11 +21,12 @@ impl SparsityPattern {
     /// Builds the pattern of a `size × size` matrix from (row, column) pairs, one per element value;
     /// pairs with a negative index are ignored when values are summed.
     pub fn from_pairs(size: usize, pairs: &[Pair<isize, isize>]) -> Result<Self> {
-        let (symbolic, argsort) = SymbolicSparseColMat::<usize>::try_new_from_nonnegative_indices(size, size, pairs)
-            .map_err(|e| Error::LinearAlgebra {
-                context: "sparsity pattern".into(),
-                message: format!("{e:?}"),
-            })?;
+        let (symbolic, argsort) =
+            SymbolicSparseColMat::<usize>::try_new_from_nonnegative_indices(size, size, pairs)
+                .map_err(|e| Error::LinearAlgebra {
+                    context: "sparsity pattern".into(),
+                    message: format!("{e:?}"),
+                })?;
         Ok(Self {
             size,
             value_count: pairs.len(),
@@ -81,9 +82,11 @@ pub struct CholeskySolver {
 impl CholeskySolver {
     /// Symbolic analysis of the pattern of `matrix` (lower triangle is read).
     pub fn analyse(matrix: &SparseColMat<usize, f64>, context: &'static str) -> Result<Self> {
-        let symbolic = SymbolicLlt::try_new(matrix.symbolic(), Side::Lower).map_err(|e| Error::LinearAlgebra {
-            context: context.into(),
-            message: format!("symbolic Cholesky analysis failed: {e:?}"),
+        let symbolic = SymbolicLlt::try_new(matrix.symbolic(), Side::Lower).map_err(|e| {
+            Error::LinearAlgebra {
+                context: context.into(),
+                message: format!("symbolic Cholesky analysis failed: {e:?}"),
+            }
         })?;
         Ok(Self {
             size: matrix.nrows(),
@@ -95,12 +98,14 @@ impl CholeskySolver {
 
     /// Numeric factorization of `matrix` (same pattern as analysed).
     pub fn factorize(&mut self, matrix: &SparseColMat<usize, f64>) -> Result<()> {
-        let factor = Llt::try_new_with_symbolic(self.symbolic.clone(), matrix.as_ref(), Side::Lower).map_err(|e| {
-            Error::LinearAlgebra {
-                context: self.context.into(),
-                message: format!("Cholesky factorization failed (matrix not positive definite?): {e:?}"),
-            }
-        })?;
+        let factor =
+            Llt::try_new_with_symbolic(self.symbolic.clone(), matrix.as_ref(), Side::Lower)
+                .map_err(|e| Error::LinearAlgebra {
+                    context: self.context.into(),
+                    message: format!(
+                        "Cholesky factorization failed (matrix not positive definite?): {e:?}"
+                    ),
+                })?;
         self.factor = Some(factor);
         Ok(())
     }

@@ -3,7 +3,9 @@
 //! depend only on step n−1 — then update u_n = u_{n−1} + k v_n (5.4)–(5.5). Initial data are
 //! interpolated, u_0 = Π^h u0, β_0 = Π^h β0 (5.3), (5.30).
 
-use crate::assembly::{add_facet_integrals, assemble_cell_vector, field_strain, physical_gradients};
+use crate::assembly::{
+    add_facet_integrals, assemble_cell_vector, field_strain, physical_gradients,
+};
 use crate::contact::{ContactNodes, ContactStatus};
 use crate::damage::{DamageOperator, DamageSolution};
 use crate::laws::{ContactLaw, DamageSource, Elasticity, Viscosity};
@@ -11,7 +13,9 @@ use crate::mesh::{BoundaryPart, Mesh};
 use crate::obstacle::{BoxQpSettings, BoxQpStats};
 use crate::quadrature::QuadratureRule;
 use crate::space::{LagrangeSpace, Tabulation};
-use crate::velocity::{VelocityData, VelocityOperator, VelocitySettings, VelocitySolution, VelocityStats};
+use crate::velocity::{
+    VelocityData, VelocityOperator, VelocitySettings, VelocitySolution, VelocityStats,
+};
 use crate::{Error, Result};
 use nalgebra::SVector;
 use std::sync::Arc;
@@ -19,11 +23,17 @@ use std::sync::Arc;
 /// A vector field of (x, t): f0.
 pub type VectorField<const D: usize> = Arc<dyn Fn(&[f64; D], f64) -> [f64; D] + Send + Sync>;
 /// A vector boundary datum of (x, t, outward normal): f2, f3.
-pub type BoundaryVectorField<const D: usize> = Arc<dyn Fn(&[f64; D], f64, &[f64; D]) -> [f64; D] + Send + Sync>;
+pub type BoundaryVectorField<const D: usize> =
+    Arc<dyn Fn(&[f64; D], f64, &[f64; D]) -> [f64; D] + Send + Sync>;
 /// A scalar field of (x, t): q.
 pub type ScalarField<const D: usize> = Arc<dyn Fn(&[f64; D], f64) -> f64 + Send + Sync>;
+/// A time-independent scalar field of x: g, β0.
+pub type StaticScalarField<const D: usize> = Arc<dyn Fn(&[f64; D]) -> f64 + Send + Sync>;
+/// A time-independent vector field of x: u0.
+pub type StaticVectorField<const D: usize> = Arc<dyn Fn(&[f64; D]) -> [f64; D] + Send + Sync>;
 /// A scalar boundary datum of (x, t, outward normal): the damage flux κ ∂β/∂ν.
-pub type BoundaryScalarField<const D: usize> = Arc<dyn Fn(&[f64; D], f64, &[f64; D]) -> f64 + Send + Sync>;
+pub type BoundaryScalarField<const D: usize> =
+    Arc<dyn Fn(&[f64; D], f64, &[f64; D]) -> f64 + Send + Sync>;
 
 /// The constitutive laws of Problem P (§2) and the damage diffusion κ of (2.2).
 #[derive(Clone)]
@@ -54,11 +64,11 @@ pub struct Data<const D: usize> {
     /// Damage flux κ ∂β/∂ν on Γ (zero in (2.4); nonzero for manufactured solutions).
     pub damage_flux: Option<BoundaryScalarField<D>>,
     /// Gap g ≥ 0 on Γ3, measured along the outward normal.
-    pub gap: Arc<dyn Fn(&[f64; D]) -> f64 + Send + Sync>,
+    pub gap: StaticScalarField<D>,
     /// u0 (must vanish on Γ1).
-    pub initial_displacement: Arc<dyn Fn(&[f64; D]) -> [f64; D] + Send + Sync>,
+    pub initial_displacement: StaticVectorField<D>,
     /// β0 with values in [0, 1].
-    pub initial_damage: Arc<dyn Fn(&[f64; D]) -> f64 + Send + Sync>,
+    pub initial_damage: StaticScalarField<D>,
 }
 
 /// Solver settings of both steps.
@@ -173,22 +183,46 @@ impl<const D: usize> Simulation<D> {
         model.damage_source.validate()?;
         model.contact.validate()?;
         if !(problem.final_time.is_finite() && problem.final_time > 0.0) {
-            return Err(Error::parameter("final_time", problem.final_time, "T must be > 0"));
+            return Err(Error::parameter(
+                "final_time",
+                problem.final_time,
+                "T must be > 0",
+            ));
         }
         if problem.steps == 0 {
-            return Err(Error::parameter("steps", 0.0, "the number of time steps N must be ≥ 1"));
+            return Err(Error::parameter(
+                "steps",
+                0.0,
+                "the number of time steps N must be ≥ 1",
+            ));
         }
         let space = Arc::new(LagrangeSpace::new(problem.mesh.clone(), problem.degree)?);
         let contact = Arc::new(ContactNodes::new(&space)?);
-        let velocity = VelocityOperator::new(space.clone(), model.viscosity.clone(), contact.clone())?;
+        let velocity =
+            VelocityOperator::new(space.clone(), model.viscosity.clone(), contact.clone())?;
         let time_step = problem.final_time / problem.steps as f64;
-        let damage = DamageOperator::new(space.clone(), model.damage_diffusion, time_step, problem.settings.damage)?;
-        let load_tabulation =
-            Tabulation::cell_rule(space.element(), &QuadratureRule::<D>::simplex(2 * space.degree() + 2));
-        let gap: Vec<f64> = contact.nodes.iter().map(|&node| (problem.data.gap)(&space.node(node))).collect();
+        let damage = DamageOperator::new(
+            space.clone(),
+            model.damage_diffusion,
+            time_step,
+            problem.settings.damage,
+        )?;
+        let load_tabulation = Tabulation::cell_rule(
+            space.element(),
+            &QuadratureRule::<D>::simplex(2 * space.degree() + 2),
+        );
+        let gap: Vec<f64> = contact
+            .nodes
+            .iter()
+            .map(|&node| (problem.data.gap)(&space.node(node)))
+            .collect();
         if let Some(k) = gap.iter().position(|g| !g.is_finite() || *g < 0.0) {
             return Err(Error::parameter(
-                format!("gap at contact node {} {:?}", contact.nodes[k], space.node(contact.nodes[k])),
+                format!(
+                    "gap at contact node {} {:?}",
+                    contact.nodes[k],
+                    space.node(contact.nodes[k])
+                ),
                 gap[k],
                 "g must be finite and ≥ 0",
             ));
@@ -198,7 +232,10 @@ impl<const D: usize> Simulation<D> {
             let u = &displacement[node * D..node * D + D];
             if u.iter().any(|v| v.abs() > 1e-12) {
                 return Err(Error::parameter(
-                    format!("initial_displacement at clamped node {node} {:?}", space.node(node)),
+                    format!(
+                        "initial_displacement at clamped node {node} {:?}",
+                        space.node(node)
+                    ),
                     u.iter().fold(0.0f64, |m, v| m.max(v.abs())),
                     "u0 must vanish on Γ1 (2.5)",
                 ));
@@ -213,7 +250,10 @@ impl<const D: usize> Simulation<D> {
             ));
         }
         if let Some(i) = displacement.iter().position(|v| !v.is_finite()) {
-            return Err(Error::NonFinite(format!("initial displacement at node {}", i / D)));
+            return Err(Error::NonFinite(format!(
+                "initial displacement at node {}",
+                i / D
+            )));
         }
         let state = State {
             step: 0,
@@ -242,8 +282,13 @@ impl<const D: usize> Simulation<D> {
     /// Replaces the current state (restart from saved fields).
     pub fn set_state(&mut self, state: State) -> Result<()> {
         let n = self.space.num_nodes();
-        if state.displacement.len() != n * D || state.velocity.len() != n * D || state.damage.len() != n {
-            return Err(Error::InvalidInput("state does not match the finite element space".into()));
+        if state.displacement.len() != n * D
+            || state.velocity.len() != n * D
+            || state.damage.len() != n
+        {
+            return Err(Error::InvalidInput(
+                "state does not match the finite element space".into(),
+            ));
         }
         self.state = state;
         Ok(())
@@ -293,7 +338,11 @@ impl<const D: usize> Simulation<D> {
                 physical_gradients(geometry, tab, q, &mut grads);
                 let values = &tab.values[q * n..(q + 1) * n];
                 let strain = field_strain(nodes, &grads[..n], displacement);
-                let beta: f64 = nodes.iter().zip(values).map(|(&node, v)| damage[node] * v).sum();
+                let beta: f64 = nodes
+                    .iter()
+                    .zip(values)
+                    .map(|(&node, v)| damage[node] * v)
+                    .sum();
                 let weight = tab.weights[q] * geometry.det;
                 let x = geometry.point(&tab.points[q]);
                 let stress = model.elasticity.stress(&strain, beta);
@@ -319,7 +368,8 @@ impl<const D: usize> Simulation<D> {
         let mut velocity_load = vec![0.0; space.num_nodes() * D];
         let mut damage_source = vec![0.0; space.num_nodes()];
         for node in 0..space.num_nodes() {
-            velocity_load[node * D..node * D + D].copy_from_slice(&combined[node * (D + 1)..node * (D + 1) + D]);
+            velocity_load[node * D..node * D + D]
+                .copy_from_slice(&combined[node * (D + 1)..node * (D + 1) + D]);
             damage_source[node] = combined[node * (D + 1) + D];
         }
         let degree = 2 * space.degree() + 2;
@@ -344,7 +394,14 @@ impl<const D: usize> Simulation<D> {
             );
         }
         if let Some(flux) = &data.damage_flux {
-            add_facet_integrals(space, degree, 1, |_| true, |x, normal, out| out[0] = flux(x, time, normal), &mut damage_source);
+            add_facet_integrals(
+                space,
+                degree,
+                1,
+                |_| true,
+                |x, normal, out| out[0] = flux(x, time, normal),
+                &mut damage_source,
+            );
         }
         (velocity_load, damage_source)
     }
@@ -357,9 +414,14 @@ impl<const D: usize> Simulation<D> {
             .iter()
             .enumerate()
             .map(|(k, &node)| {
-                let u = SVector::<f64, D>::from_column_slice(&self.state.displacement[node * D..node * D + D]);
+                let u = SVector::<f64, D>::from_column_slice(
+                    &self.state.displacement[node * D..node * D + D],
+                );
                 let penetration = u.dot(&self.contact.normal(k)) - self.gap[k];
-                (law.normal_pressure(penetration), law.friction_bound(penetration))
+                (
+                    law.normal_pressure(penetration),
+                    law.friction_bound(penetration),
+                )
             })
             .unzip()
     }
@@ -398,7 +460,10 @@ impl<const D: usize> Simulation<D> {
     }
 
     /// Runs the remaining steps up to N, calling `observer` after each.
-    pub fn run(&mut self, mut observer: impl FnMut(&StepReport<'_, D>) -> Result<()>) -> Result<RunSummary> {
+    pub fn run(
+        &mut self,
+        mut observer: impl FnMut(&StepReport<'_, D>) -> Result<()>,
+    ) -> Result<RunSummary> {
         let mut summary = RunSummary::default();
         while self.state.step < self.problem.steps {
             let (velocity, damage, normal_pressure, friction_bound) = self.step()?;
@@ -410,7 +475,14 @@ impl<const D: usize> Simulation<D> {
             summary.damage_iterations += damage.stats.iterations;
             summary.velocity_factorizations += velocity.stats.factorizations;
             summary.damage_factorizations += damage.stats.factorizations;
-            for (slot, status) in [ContactStatus::Separated, ContactStatus::Stick, ContactStatus::Slip].iter().enumerate() {
+            for (slot, status) in [
+                ContactStatus::Separated,
+                ContactStatus::Stick,
+                ContactStatus::Slip,
+            ]
+            .iter()
+            .enumerate()
+            {
                 if velocity.status.contains(status) {
                     summary.steps_with_status[slot] += 1;
                 }

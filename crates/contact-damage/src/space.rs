@@ -32,7 +32,8 @@ impl<const D: usize> CellGeometry<D> {
 
     /// Reference point of the physical point x.
     pub fn reference_point(&self, x: &[f64; D]) -> [f64; D] {
-        let xi = self.inverse_transpose.transpose() * (SVector::<f64, D>::from_column_slice(x) - self.origin);
+        let xi = self.inverse_transpose.transpose()
+            * (SVector::<f64, D>::from_column_slice(x) - self.origin);
         std::array::from_fn(|i| xi[i])
     }
 }
@@ -62,7 +63,11 @@ impl<const D: usize> Tabulation<D> {
         for (q, xi) in points.iter().enumerate() {
             element.values(xi, &mut values[q * nodes..(q + 1) * nodes]);
             element.gradients(xi, &mut grads);
-            gradients.extend(grads.iter().map(|g| SVector::<f64, D>::from_column_slice(g)));
+            gradients.extend(
+                grads
+                    .iter()
+                    .map(|g| SVector::<f64, D>::from_column_slice(g)),
+            );
         }
         Self {
             weights,
@@ -147,7 +152,9 @@ impl<const D: usize> LagrangeSpace<D> {
         let n_local = element.num_nodes();
         let mut cell_nodes = Vec::with_capacity(mesh.num_cells() * n_local);
         let mut edge_index: HashMap<(usize, usize), usize> = HashMap::new();
-        let midpoint = |a: &[f64; D], b: &[f64; D]| -> [f64; D] { std::array::from_fn(|i| 0.5 * (a[i] + b[i])) };
+        let midpoint = |a: &[f64; D], b: &[f64; D]| -> [f64; D] {
+            std::array::from_fn(|i| 0.5 * (a[i] + b[i]))
+        };
         for c in 0..mesh.num_cells() {
             let cell = mesh.cell(c);
             cell_nodes.extend_from_slice(cell);
@@ -172,9 +179,14 @@ impl<const D: usize> LagrangeSpace<D> {
             if degree == 2 {
                 for edge in simplex_edges(D - 1) {
                     let (a, b) = (facet[edge[0]], facet[edge[1]]);
-                    let id = edge_index.get(&(a.min(b), a.max(b))).copied().ok_or_else(|| {
-                        Error::InvalidMesh(format!("boundary facet {f} has an edge ({a}, {b}) that belongs to no cell"))
-                    })?;
+                    let id = edge_index
+                        .get(&(a.min(b), a.max(b)))
+                        .copied()
+                        .ok_or_else(|| {
+                            Error::InvalidMesh(format!(
+                                "boundary facet {f} has an edge ({a}, {b}) that belongs to no cell"
+                            ))
+                        })?;
                     facet_nodes.push(id);
                 }
             }
@@ -186,7 +198,9 @@ impl<const D: usize> LagrangeSpace<D> {
                 let inverse_transpose = jacobian
                     .try_inverse()
                     .map(|inv| inv.transpose())
-                    .ok_or_else(|| Error::InvalidMesh(format!("cell {c} has a singular Jacobian")))?;
+                    .ok_or_else(|| {
+                        Error::InvalidMesh(format!("cell {c} has a singular Jacobian"))
+                    })?;
                 Ok(CellGeometry {
                     origin: SVector::<f64, D>::from_column_slice(&origin),
                     jacobian,
@@ -296,7 +310,12 @@ impl<const D: usize> LagrangeSpace<D> {
 
     /// Value and gradient (∂u_i/∂x_j at (i, j)) at reference point ξ of cell c of the vector field
     /// with node-major nodal values.
-    pub fn eval_vector(&self, c: usize, xi: &[f64; D], nodal: &[f64]) -> (SVector<f64, D>, SMatrix<f64, D, D>) {
+    pub fn eval_vector(
+        &self,
+        c: usize,
+        xi: &[f64; D],
+        nodal: &[f64],
+    ) -> (SVector<f64, D>, SMatrix<f64, D, D>) {
         let n = self.element.num_nodes();
         let mut values = [0.0; 10];
         let mut grads = [[0.0; D]; 10];
@@ -337,7 +356,15 @@ mod tests {
     use BoundaryPart::*;
 
     fn square(n: usize) -> Arc<Mesh<2>> {
-        Arc::new(Mesh::box_mesh([0.0, 0.0], [1.0, 2.0], [n, n], [[Dirichlet, Neumann], [Contact, Neumann]]).unwrap())
+        Arc::new(
+            Mesh::box_mesh(
+                [0.0, 0.0],
+                [1.0, 2.0],
+                [n, n],
+                [[Dirichlet, Neumann], [Contact, Neumann]],
+            )
+            .unwrap(),
+        )
     }
 
     #[test]
@@ -348,8 +375,13 @@ mod tests {
         let edges = 2 * n * (n + 1) + n * n;
         assert_eq!(space.num_nodes(), vertices + edges);
         let cube = Arc::new(
-            Mesh::box_mesh([0.0; 3], [1.0; 3], [2, 2, 2], [[Dirichlet, Neumann], [Contact, Neumann], [Neumann, Neumann]])
-                .unwrap(),
+            Mesh::box_mesh(
+                [0.0; 3],
+                [1.0; 3],
+                [2, 2, 2],
+                [[Dirichlet, Neumann], [Contact, Neumann], [Neumann, Neumann]],
+            )
+            .unwrap(),
         );
         let space3 = LagrangeSpace::new(cube, 2).unwrap();
         // the P2 nodes of a Kuhn mesh of a box with 2 cells per side are the vertices of the 4^3 grid
@@ -366,7 +398,9 @@ mod tests {
     #[test]
     fn p2_interpolant_reproduces_quadratics_with_gradients() {
         let space = LagrangeSpace::new(square(3), 2).unwrap();
-        let f = |x: &[f64; 2]| 1.0 + 2.0 * x[0] - x[1] + 0.5 * x[0] * x[0] + 3.0 * x[0] * x[1] - x[1] * x[1];
+        let f = |x: &[f64; 2]| {
+            1.0 + 2.0 * x[0] - x[1] + 0.5 * x[0] * x[0] + 3.0 * x[0] * x[1] - x[1] * x[1]
+        };
         let nodal = space.interpolate_scalar(f);
         for c in [0, 5, 11] {
             let xi = [0.21, 0.37];

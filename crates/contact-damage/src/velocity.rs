@@ -113,7 +113,11 @@ pub struct VelocityOperator<const D: usize> {
 
 impl<const D: usize> VelocityOperator<D> {
     /// Builds the pattern and does the symbolic analysis (expensive, once per mesh and law).
-    pub fn new(space: Arc<LagrangeSpace<D>>, law: Arc<dyn Viscosity<D>>, contact: Arc<ContactNodes<D>>) -> Result<Self> {
+    pub fn new(
+        space: Arc<LagrangeSpace<D>>,
+        law: Arc<dyn Viscosity<D>>,
+        contact: Arc<ContactNodes<D>>,
+    ) -> Result<Self> {
         law.validate()?;
         let n_nodes = space.num_nodes();
         let mut clamped = vec![false; n_nodes];
@@ -129,7 +133,11 @@ impl<const D: usize> VelocityOperator<D> {
         for cell in 0..n_cells {
             for (a, &node) in space.cell_nodes(cell).iter().enumerate() {
                 for i in 0..D {
-                    dofs[a * D + i] = if clamped[node] { -1 } else { (node * D + i) as isize };
+                    dofs[a * D + i] = if clamped[node] {
+                        -1
+                    } else {
+                        (node * D + i) as isize
+                    };
                 }
             }
             for &row in &dofs {
@@ -146,8 +154,13 @@ impl<const D: usize> VelocityOperator<D> {
         }
         let pattern = SparsityPattern::from_pairs(size, &pairs)?;
         drop(pairs);
-        let degree = if law.is_linear() { 2 * space.degree() - 2 } else { 2 * space.degree() };
-        let tabulation = Tabulation::cell_rule(space.element(), &QuadratureRule::<D>::simplex(degree));
+        let degree = if law.is_linear() {
+            2 * space.degree() - 2
+        } else {
+            2 * space.degree()
+        };
+        let tabulation =
+            Tabulation::cell_rule(space.element(), &QuadratureRule::<D>::simplex(degree));
         let tangential = contact
             .nodes
             .iter()
@@ -160,15 +173,20 @@ impl<const D: usize> VelocityOperator<D> {
             clamped,
             pattern,
             tabulation,
-            solver: CholeskySolver::analyse(&SparseColMat::<usize, f64>::try_new_from_triplets(0, 0, &[]).map_err(|e| {
+            solver: CholeskySolver::analyse(
+                &SparseColMat::<usize, f64>::try_new_from_triplets(0, 0, &[]).map_err(|e| {
+                    Error::LinearAlgebra {
+                        context: "velocity operator".into(),
+                        message: format!("{e:?}"),
+                    }
+                })?,
+                "velocity operator",
+            )?,
+            matrix: SparseColMat::<usize, f64>::try_new_from_triplets(0, 0, &[]).map_err(|e| {
                 Error::LinearAlgebra {
                     context: "velocity operator".into(),
                     message: format!("{e:?}"),
                 }
-            })?, "velocity operator")?,
-            matrix: SparseColMat::<usize, f64>::try_new_from_triplets(0, 0, &[]).map_err(|e| Error::LinearAlgebra {
-                context: "velocity operator".into(),
-                message: format!("{e:?}"),
             })?,
             tangential,
             schur: Mat::zeros(0, 0),
@@ -207,17 +225,20 @@ impl<const D: usize> VelocityOperator<D> {
         let n_cells = self.space.mesh().num_cells();
         let mut values = vec![0.0; self.pattern.value_count()];
         let (cell_values, clamped_values) = values.split_at_mut(n_cells * block);
-        cell_values.par_chunks_mut(block).enumerate().for_each(|(cell, out)| {
-            viscous_element_matrix(
-                self.law.as_ref(),
-                &self.space,
-                &self.tabulation,
-                cell,
-                cartesian.as_deref(),
-                out,
-            );
-            self.rotate_element_matrix(cell, out);
-        });
+        cell_values
+            .par_chunks_mut(block)
+            .enumerate()
+            .for_each(|(cell, out)| {
+                viscous_element_matrix(
+                    self.law.as_ref(),
+                    &self.space,
+                    &self.tabulation,
+                    cell,
+                    cartesian.as_deref(),
+                    out,
+                );
+                self.rotate_element_matrix(cell, out);
+            });
         clamped_values.fill(1.0);
         self.pattern.matrix(&values)
     }
@@ -227,7 +248,9 @@ impl<const D: usize> VelocityOperator<D> {
         let nodes = self.space.cell_nodes(cell);
         let nd = nodes.len() * D;
         for (a, &node) in nodes.iter().enumerate() {
-            let Some(k) = self.contact.index_of_node[node] else { continue };
+            let Some(k) = self.contact.index_of_node[node] else {
+                continue;
+            };
             let frame = &self.contact.frames[k];
             // rows: K[(a,·), :] ← R_aᵀ K[(a,·), :]
             for col in 0..nd {
@@ -252,7 +275,8 @@ impl<const D: usize> VelocityOperator<D> {
     pub fn to_system(&self, cartesian: &[f64]) -> Vec<f64> {
         let mut system = cartesian.to_vec();
         for (k, &node) in self.contact.nodes.iter().enumerate() {
-            let local = self.contact.frames[k].transpose() * SVector::<f64, D>::from_column_slice(&cartesian[node * D..node * D + D]);
+            let local = self.contact.frames[k].transpose()
+                * SVector::<f64, D>::from_column_slice(&cartesian[node * D..node * D + D]);
             system[node * D..node * D + D].copy_from_slice(local.as_slice());
         }
         for (node, _) in self.clamped.iter().enumerate().filter(|(_, &c)| c) {
@@ -265,7 +289,8 @@ impl<const D: usize> VelocityOperator<D> {
     pub fn to_cartesian(&self, system: &[f64]) -> Vec<f64> {
         let mut cartesian = system.to_vec();
         for (k, &node) in self.contact.nodes.iter().enumerate() {
-            let global = self.contact.frames[k] * SVector::<f64, D>::from_column_slice(&system[node * D..node * D + D]);
+            let global = self.contact.frames[k]
+                * SVector::<f64, D>::from_column_slice(&system[node * D..node * D + D]);
             cartesian[node * D..node * D + D].copy_from_slice(global.as_slice());
         }
         cartesian
@@ -296,13 +321,18 @@ impl<const D: usize> VelocityOperator<D> {
         }
         if m > 0 {
             // symmetrize against round-off, then invert through a dense Cholesky factorization
-            let sym = Mat::<f64>::from_fn(m, m, |i, j| 0.5 * (inverse_block[(i, j)] + inverse_block[(j, i)]));
-            let llt = sym.llt(faer::Side::Lower).map_err(|e| Error::LinearAlgebra {
-                context: "condensed velocity operator E_cᵀ H⁻¹ E_c".into(),
-                message: format!("dense Cholesky failed: {e:?}"),
-            })?;
+            let sym = Mat::<f64>::from_fn(m, m, |i, j| {
+                0.5 * (inverse_block[(i, j)] + inverse_block[(j, i)])
+            });
+            let llt = sym
+                .llt(faer::Side::Lower)
+                .map_err(|e| Error::LinearAlgebra {
+                    context: "condensed velocity operator E_cᵀ H⁻¹ E_c".into(),
+                    message: format!("dense Cholesky failed: {e:?}"),
+                })?;
             let inverse = faer::linalg::solvers::DenseSolveCore::inverse(&llt);
-            self.schur = Mat::<f64>::from_fn(m, m, |i, j| 0.5 * (inverse[(i, j)] + inverse[(j, i)]));
+            self.schur =
+                Mat::<f64>::from_fn(m, m, |i, j| 0.5 * (inverse[(i, j)] + inverse[(j, i)]));
         } else {
             self.schur = Mat::zeros(0, 0);
         }
@@ -317,24 +347,27 @@ impl<const D: usize> VelocityOperator<D> {
         let tab = &self.tabulation;
         let n = tab.nodes;
         let mut locals = vec![0.0; n_cells * (n_local + 1)];
-        locals.par_chunks_mut(n_local + 1).enumerate().for_each(|(cell, out)| {
-            let geometry = self.space.geometry(cell);
-            let nodes = self.space.cell_nodes(cell);
-            let mut grads = [SVector::<f64, D>::zeros(); 10];
-            for q in 0..tab.len() {
-                crate::assembly::physical_gradients(geometry, tab, q, &mut grads);
-                let rate = crate::assembly::field_strain(nodes, &grads[..n], &cartesian);
-                let weight = tab.weights[q] * geometry.det;
-                out[n_local] += weight * self.law.potential(&rate);
-                let stress = self.law.stress(&rate) * weight;
-                for a in 0..n {
-                    let traction = stress * grads[a];
-                    for i in 0..D {
-                        out[a * D + i] += traction[i];
+        locals
+            .par_chunks_mut(n_local + 1)
+            .enumerate()
+            .for_each(|(cell, out)| {
+                let geometry = self.space.geometry(cell);
+                let nodes = self.space.cell_nodes(cell);
+                let mut grads = [SVector::<f64, D>::zeros(); 10];
+                for q in 0..tab.len() {
+                    crate::assembly::physical_gradients(geometry, tab, q, &mut grads);
+                    let rate = crate::assembly::field_strain(nodes, &grads[..n], &cartesian);
+                    let weight = tab.weights[q] * geometry.det;
+                    out[n_local] += weight * self.law.potential(&rate);
+                    let stress = self.law.stress(&rate) * weight;
+                    for a in 0..n {
+                        let traction = stress * grads[a];
+                        for i in 0..D {
+                            out[a * D + i] += traction[i];
+                        }
                     }
                 }
-            }
-        });
+            });
         let mut force = vec![0.0; self.size()];
         let mut energy = 0.0;
         for (cell, chunk) in locals.chunks(n_local + 1).enumerate() {
@@ -349,7 +382,12 @@ impl<const D: usize> VelocityOperator<D> {
     }
 
     fn friction_weights(&self, friction_bound: &[f64]) -> Vec<f64> {
-        self.contact.weights.iter().zip(friction_bound).map(|(w, s)| w * s).collect()
+        self.contact
+            .weights
+            .iter()
+            .zip(friction_bound)
+            .map(|(w, s)| w * s)
+            .collect()
     }
 
     fn friction_term(&self, weights: &[f64], velocity_system: &[f64]) -> f64 {
@@ -357,7 +395,13 @@ impl<const D: usize> VelocityOperator<D> {
             .nodes
             .iter()
             .zip(weights)
-            .map(|(&node, w)| w * velocity_system[node * D + 1..node * D + D].iter().map(|t| t * t).sum::<f64>().sqrt())
+            .map(|(&node, w)| {
+                w * velocity_system[node * D + 1..node * D + D]
+                    .iter()
+                    .map(|t| t * t)
+                    .sum::<f64>()
+                    .sqrt()
+            })
             .sum()
     }
 
@@ -365,7 +409,13 @@ impl<const D: usize> VelocityOperator<D> {
     /// max of ‖N(v) − F + E_c W λ‖_∞ / ‖F‖_∞ (stationarity), max_a (|λ_a| − 1)₊ (dual
     /// feasibility) and max over slipping nodes of |λ_a − v_τ(a)/|v_τ(a)|| (complementarity);
     /// stick nodes have v_τ(a) = 0 exactly.
-    pub fn kkt_residual(&self, load_system: &[f64], weights: &[f64], velocity_system: &[f64], multipliers: &[f64]) -> f64 {
+    pub fn kkt_residual(
+        &self,
+        load_system: &[f64],
+        weights: &[f64],
+        velocity_system: &[f64],
+        multipliers: &[f64],
+    ) -> f64 {
         let force = if self.law.is_linear() {
             multiply(&self.matrix, velocity_system)
         } else {
@@ -394,17 +444,28 @@ impl<const D: usize> VelocityOperator<D> {
                 }
             }
         }
-        let scale = load_system.iter().fold(0.0f64, |m, f| m.max(f.abs())).max(f64::MIN_POSITIVE);
+        let scale = load_system
+            .iter()
+            .fold(0.0f64, |m, f| m.max(f.abs()))
+            .max(f64::MIN_POSITIVE);
         let stationarity = residual.iter().fold(0.0f64, |m, r| m.max(r.abs())) / scale;
         stationarity.max(worst)
     }
 
     /// Solves the velocity step (5.1) for the given data; `start` (Cartesian) is the initial
     /// guess of the outer Newton iteration (ignored for a linear 𝒜).
-    pub fn solve(&mut self, data: &VelocityData<'_>, start: &[f64], settings: &VelocitySettings) -> Result<VelocitySolution> {
+    pub fn solve(
+        &mut self,
+        data: &VelocityData<'_>,
+        start: &[f64],
+        settings: &VelocitySettings,
+    ) -> Result<VelocitySolution> {
         let k_count = self.contact.len();
         let size = self.size();
-        if data.load.len() != size || data.normal_pressure.len() != k_count || data.friction_bound.len() != k_count {
+        if data.load.len() != size
+            || data.normal_pressure.len() != k_count
+            || data.friction_bound.len() != k_count
+        {
             return Err(Error::InvalidInput(format!(
                 "velocity step data sizes: load {} (expected {size}), normal pressure {} and friction bound {} (expected {k_count})",
                 data.load.len(),
@@ -413,9 +474,16 @@ impl<const D: usize> VelocityOperator<D> {
             )));
         }
         if let Some(i) = data.load.iter().position(|v| !v.is_finite()) {
-            return Err(Error::NonFinite(format!("velocity step load vector at dof {i} (node {}, component {})", i / D, i % D)));
+            return Err(Error::NonFinite(format!(
+                "velocity step load vector at dof {i} (node {}, component {})",
+                i / D,
+                i % D
+            )));
         }
-        for (name, values) in [("normal pressure", data.normal_pressure), ("friction bound", data.friction_bound)] {
+        for (name, values) in [
+            ("normal pressure", data.normal_pressure),
+            ("friction bound", data.friction_bound),
+        ] {
             if let Some(k) = values.iter().position(|v| !v.is_finite() || *v < 0.0) {
                 return Err(Error::NonFinite(format!(
                     "{name} {} at contact node {} ({:?}) must be finite and ≥ 0",
@@ -457,9 +525,20 @@ impl<const D: usize> VelocityOperator<D> {
             } else {
                 let (_, force) = self.energy_and_force(&velocity);
                 let hv = multiply(&self.matrix, &velocity);
-                hv.iter().zip(&force).zip(&load).map(|((h, n), f)| h - (n - f)).collect()
+                hv.iter()
+                    .zip(&force)
+                    .zip(&load)
+                    .map(|((h, n), f)| h - (n - f))
+                    .collect()
             };
-            let trial = self.solve_model(&model_rhs, &weights, &velocity, &mut multipliers, settings, &mut stats)?;
+            let trial = self.solve_model(
+                &model_rhs,
+                &weights,
+                &velocity,
+                &mut multipliers,
+                settings,
+                &mut stats,
+            )?;
             if linear {
                 velocity = trial;
                 stats.kkt_residual = self.kkt_residual(&load, &weights, &velocity, &multipliers);
@@ -477,17 +556,25 @@ impl<const D: usize> VelocityOperator<D> {
             }
             // Armijo line search on J along v + α (trial − v)
             let (energy, force) = self.energy_and_force(&velocity);
-            let objective = |v: &[f64], energy: f64| energy - dot(&load, v) + self.friction_term(&weights, v);
+            let objective =
+                |v: &[f64], energy: f64| energy - dot(&load, v) + self.friction_term(&weights, v);
             let current = objective(&velocity, energy);
             let direction: Vec<f64> = trial.iter().zip(&velocity).map(|(t, v)| t - v).collect();
-            let predicted = dot(&force, &direction) - dot(&load, &direction) + self.friction_term(&weights, &trial)
+            let predicted = dot(&force, &direction) - dot(&load, &direction)
+                + self.friction_term(&weights, &trial)
                 - self.friction_term(&weights, &velocity);
             let mut step = 1.0;
             let mut accepted = None;
             for _ in 0..30 {
-                let candidate: Vec<f64> = velocity.iter().zip(&direction).map(|(v, d)| v + step * d).collect();
+                let candidate: Vec<f64> = velocity
+                    .iter()
+                    .zip(&direction)
+                    .map(|(v, d)| v + step * d)
+                    .collect();
                 let (candidate_energy, _) = self.energy_and_force(&candidate);
-                if objective(&candidate, candidate_energy) <= current + 1e-4 * step * predicted.min(0.0) + 1e-15 * current.abs() {
+                if objective(&candidate, candidate_energy)
+                    <= current + 1e-4 * step * predicted.min(0.0) + 1e-15 * current.abs()
+                {
                     accepted = Some(candidate);
                     break;
                 }

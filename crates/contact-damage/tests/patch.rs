@@ -34,7 +34,10 @@ impl<const D: usize> Field<D> {
 }
 
 fn run_patch<const D: usize>(mesh: Mesh<D>, degree: usize, field: Field<D>) -> f64 {
-    let law = LinearViscosity { shear: 1.0, bulk: 0.5 };
+    let law = LinearViscosity {
+        shear: 1.0,
+        bulk: 0.5,
+    };
     let field = Arc::new(field);
     let stress = {
         let field = field.clone();
@@ -86,18 +89,33 @@ fn run_patch<const D: usize>(mesh: Mesh<D>, degree: usize, field: Field<D>) -> f
 
 fn no_contact_square(cells: usize) -> Mesh<2> {
     use BoundaryPart::*;
-    Mesh::box_mesh([0.0, 0.0], [1.0, 1.0], [cells, cells], [[Dirichlet, Neumann], [Neumann, Neumann]]).unwrap()
+    Mesh::box_mesh(
+        [0.0, 0.0],
+        [1.0, 1.0],
+        [cells, cells],
+        [[Dirichlet, Neumann], [Neumann, Neumann]],
+    )
+    .unwrap()
 }
 
 fn no_contact_cube(cells: usize) -> Mesh<3> {
     use BoundaryPart::*;
-    Mesh::box_mesh([0.0; 3], [1.0; 3], [cells; 3], [[Dirichlet, Neumann], [Neumann, Neumann], [Neumann, Neumann]]).unwrap()
+    Mesh::box_mesh(
+        [0.0; 3],
+        [1.0; 3],
+        [cells; 3],
+        [[Dirichlet, Neumann], [Neumann, Neumann], [Neumann, Neumann]],
+    )
+    .unwrap()
 }
 
 #[test]
 fn p1_reproduces_linear_velocity_in_2d() {
     let mesh = common::distorted(&no_contact_square(4), 0.25, 0.2);
-    let field = Field { constant: SVector::<f64, 2>::new(0.3, -0.7), linear: SMatrix::zeros() };
+    let field = Field {
+        constant: SVector::<f64, 2>::new(0.3, -0.7),
+        linear: SMatrix::zeros(),
+    };
     let error = run_patch(mesh, 1, field);
     assert!(error < 1e-11, "P1 patch test error {error:e}");
 }
@@ -116,7 +134,10 @@ fn p2_reproduces_quadratic_velocity_in_2d() {
 #[test]
 fn p1_reproduces_linear_velocity_in_3d() {
     let mesh = common::distorted(&no_contact_cube(3), 1.0 / 3.0, 0.15);
-    let field = Field { constant: SVector::<f64, 3>::new(0.3, -0.7, 0.2), linear: SMatrix::zeros() };
+    let field = Field {
+        constant: SVector::<f64, 3>::new(0.3, -0.7, 0.2),
+        linear: SMatrix::zeros(),
+    };
     let error = run_patch(mesh, 1, field);
     assert!(error < 1e-11, "P1 3D patch test error {error:e}");
 }
@@ -141,5 +162,8 @@ fn p1_does_not_reproduce_quadratic_velocity() {
         linear: SMatrix::<f64, 2, 2>::new(0.5, -1.0, 0.25, 2.0),
     };
     let error = run_patch(mesh, 1, field);
-    assert!(error > 1e-4, "P1 cannot be exact for a quadratic field, error {error:e}");
+    assert!(
+        error > 1e-4,
+        "P1 cannot be exact for a quadratic field, error {error:e}"
+    );
 }

@@ -27,7 +27,10 @@ enum Regime {
 struct Lcg(u64);
 impl Lcg {
     fn next(&mut self) -> f64 {
-        self.0 = self.0.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
         ((self.0 >> 11) as f64) / ((1u64 << 53) as f64)
     }
     fn symmetric(&mut self) -> f64 {
@@ -37,11 +40,19 @@ impl Lcg {
 
 /// Solves one random velocity step and returns the independently recomputed KKT residual and
 /// the contact statuses.
-fn velocity_kkt<const D: usize>(mesh: Mesh<D>, degree: usize, regime: Regime, seed: u64) -> (f64, Vec<ContactStatus>) {
+fn velocity_kkt<const D: usize>(
+    mesh: Mesh<D>,
+    degree: usize,
+    regime: Regime,
+    seed: u64,
+) -> (f64, Vec<ContactStatus>) {
     let mut rng = Lcg(seed);
     let space = Arc::new(LagrangeSpace::new(Arc::new(mesh), degree).unwrap());
     let contact = Arc::new(ContactNodes::new(&space).unwrap());
-    let law = Arc::new(LinearViscosity { shear: 1.0, bulk: 0.3 });
+    let law = Arc::new(LinearViscosity {
+        shear: 1.0,
+        bulk: 0.3,
+    });
     let mut operator = VelocityOperator::new(space.clone(), law, contact.clone()).unwrap();
     let n = space.num_nodes() * D;
     let load: Vec<f64> = (0..n).map(|_| 0.05 * rng.symmetric()).collect();
@@ -64,7 +75,9 @@ fn velocity_kkt<const D: usize>(mesh: Mesh<D>, degree: usize, regime: Regime, se
         friction_bound: &bound,
     };
     let start: Vec<f64> = (0..n).map(|_| rng.symmetric()).collect();
-    let solution = operator.solve(&data, &start, &VelocitySettings::default()).unwrap();
+    let solution = operator
+        .solve(&data, &start, &VelocitySettings::default())
+        .unwrap();
     // independent KKT check in the system frame
     let matrix = operator.assemble(None).unwrap();
     let v = operator.to_system(&solution.velocity);
@@ -72,7 +85,11 @@ fn velocity_kkt<const D: usize>(mesh: Mesh<D>, degree: usize, regime: Regime, se
     for (k, &node) in contact.nodes.iter().enumerate() {
         f[node * D] -= contact.weights[k] * pressure[k];
     }
-    let mut residual: Vec<f64> = multiply(&matrix, &v).iter().zip(&f).map(|(a, b)| a - b).collect();
+    let mut residual: Vec<f64> = multiply(&matrix, &v)
+        .iter()
+        .zip(&f)
+        .map(|(a, b)| a - b)
+        .collect();
     let clamped = space.boundary_nodes(contact_damage::mesh::BoundaryPart::Dirichlet);
     for &node in &clamped {
         for i in 0..D {
@@ -106,8 +123,14 @@ fn check_regime(statuses: &[ContactStatus], regime: Regime) {
     let has = |s: ContactStatus| statuses.contains(&s);
     match regime {
         Regime::NoContact => assert!(statuses.iter().all(|s| *s == ContactStatus::Separated)),
-        Regime::AllStick => assert!(statuses.iter().all(|s| *s == ContactStatus::Stick), "{statuses:?}"),
-        Regime::AllSlip => assert!(statuses.iter().all(|s| *s == ContactStatus::Slip), "{statuses:?}"),
+        Regime::AllStick => assert!(
+            statuses.iter().all(|s| *s == ContactStatus::Stick),
+            "{statuses:?}"
+        ),
+        Regime::AllSlip => assert!(
+            statuses.iter().all(|s| *s == ContactStatus::Slip),
+            "{statuses:?}"
+        ),
         Regime::Mixed => assert!(
             has(ContactStatus::Separated) && has(ContactStatus::Stick) && has(ContactStatus::Slip),
             "{statuses:?}"
@@ -115,7 +138,12 @@ fn check_regime(statuses: &[ContactStatus], regime: Regime) {
     }
 }
 
-const REGIMES: [Regime; 4] = [Regime::NoContact, Regime::AllStick, Regime::AllSlip, Regime::Mixed];
+const REGIMES: [Regime; 4] = [
+    Regime::NoContact,
+    Regime::AllStick,
+    Regime::AllSlip,
+    Regime::Mixed,
+];
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
@@ -172,11 +200,18 @@ fn mixed_regime_has_all_three_contact_states() {
 #[test]
 fn damage_step_activates_both_bounds() {
     let space = Arc::new(LagrangeSpace::new(Arc::new(common::square(6)), 1).unwrap());
-    let mut operator = DamageOperator::new(space.clone(), 0.01, 0.1, BoxQpSettings::default()).unwrap();
+    let mut operator =
+        DamageOperator::new(space.clone(), 0.01, 0.1, BoxQpSettings::default()).unwrap();
     let n = space.num_nodes();
     let previous = vec![0.5; n];
-    let source: Vec<f64> = (0..n).map(|i| 50.0 * (space.node(i)[0] - 0.5) / n as f64).collect();
+    let source: Vec<f64> = (0..n)
+        .map(|i| 50.0 * (space.node(i)[0] - 0.5) / n as f64)
+        .collect();
     let solution = operator.solve(&source, &previous).unwrap();
-    assert!(solution.stats.lower_active > 0 && solution.stats.upper_active > 0, "{:?}", solution.stats);
+    assert!(
+        solution.stats.lower_active > 0 && solution.stats.upper_active > 0,
+        "{:?}",
+        solution.stats
+    );
     assert!(solution.stats.kkt_residual <= 1e-10);
 }

@@ -47,7 +47,11 @@ fn gradient<const D: usize>(c: &SVector<f64, D>) -> Tensor<D> {
 fn final_error<const D: usize>(mesh: Mesh<D>, steps: usize) -> f64 {
     let model = common::model::<D>();
     let mut data = common::quiet_data::<D>();
-    let (viscosity, elasticity, source) = (model.viscosity.clone(), model.elasticity.clone(), model.damage_source.clone());
+    let (viscosity, elasticity, source) = (
+        model.viscosity.clone(),
+        model.elasticity.clone(),
+        model.damage_source.clone(),
+    );
     // σ is constant in space: f0 = 0, f2 = σν on Γ2, and on the separated Γ3 the extra traction
     // of SPEC §4 is f3 = σν (p_ν = p_τ = 0)
     let traction = Arc::new(move |_x: &[f64; D], t: f64, n: &[f64; D]| {
@@ -66,7 +70,8 @@ fn final_error<const D: usize>(mesh: Mesh<D>, steps: usize) -> f64 {
     // Γ3 exists but the gap keeps it separated: the contact code runs with p_ν = 0
     data.gap = Arc::new(|_| 1.0);
     let final_time = 1.0;
-    let mut simulation = Simulation::new(common::problem(mesh, 1, data, final_time, steps)).unwrap();
+    let mut simulation =
+        Simulation::new(common::problem(mesh, 1, data, final_time, steps)).unwrap();
     simulation.run(|_| Ok(())).unwrap();
     let state = simulation.state();
     let space = simulation.space();
@@ -83,24 +88,43 @@ fn final_error<const D: usize>(mesh: Mesh<D>, steps: usize) -> f64 {
 }
 
 fn assert_rate_one<const D: usize>(mesh: impl Fn() -> Mesh<D>) {
-    let errors: Vec<f64> = [8, 16, 32, 64].iter().map(|&n| final_error(mesh(), n)).collect();
+    let errors: Vec<f64> = [8, 16, 32, 64]
+        .iter()
+        .map(|&n| final_error(mesh(), n))
+        .collect();
     let rates: Vec<f64> = errors.windows(2).map(|w| (w[0] / w[1]).log2()).collect();
     for rate in &rates[1..] {
-        assert!((rate - 1.0).abs() < 0.1, "time rates {rates:?} (errors {errors:?}) should approach 1");
+        assert!(
+            (rate - 1.0).abs() < 0.1,
+            "time rates {rates:?} (errors {errors:?}) should approach 1"
+        );
     }
 }
 
 #[test]
 fn scheme_converges_with_rate_one_in_time_2d() {
     use BoundaryPart::*;
-    assert_rate_one(|| Mesh::box_mesh([0.0, 0.0], [1.0, 1.0], [3, 3], [[Dirichlet, Neumann], [Contact, Neumann]]).unwrap());
+    assert_rate_one(|| {
+        Mesh::box_mesh(
+            [0.0, 0.0],
+            [1.0, 1.0],
+            [3, 3],
+            [[Dirichlet, Neumann], [Contact, Neumann]],
+        )
+        .unwrap()
+    });
 }
 
 #[test]
 fn scheme_converges_with_rate_one_in_time_3d() {
     use BoundaryPart::*;
     assert_rate_one(|| {
-        Mesh::box_mesh([0.0; 3], [1.0; 3], [2, 2, 2], [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]]).unwrap()
+        Mesh::box_mesh(
+            [0.0; 3],
+            [1.0; 3],
+            [2, 2, 2],
+            [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]],
+        )
+        .unwrap()
     });
 }
-

@@ -8,8 +8,8 @@ use crate::expr::Expr;
 use crate::manufactured::{value, ExactSolution, Laws};
 use crate::VerifyError;
 use contact_damage::laws::{
-    DamageSource, DamagedHooke, LinearViscosity, NormalComplianceCoulomb, SaturatingViscosity, Tensor,
-    TruncatedFremond, Viscosity,
+    DamageSource, DamagedHooke, LinearViscosity, NormalComplianceCoulomb, SaturatingViscosity,
+    Tensor, TruncatedFremond, Viscosity,
 };
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::{Data, Model, Problem, SchemeSettings};
@@ -86,7 +86,12 @@ pub enum ViscosityFile {
     /// 𝒜ε = 2ηε + ζ tr(ε) I.
     Linear { shear: f64, bulk: f64 },
     /// Linear plus a saturating deviatoric part.
-    Saturating { shear: f64, bulk: f64, extra_shear: f64, rate_scale: f64 },
+    Saturating {
+        shear: f64,
+        bulk: f64,
+        extra_shear: f64,
+        rate_scale: f64,
+    },
 }
 
 /// Elasticity laws.
@@ -94,7 +99,10 @@ pub enum ViscosityFile {
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ElasticityFile {
     /// G = β(2με + λ tr(ε) I).
-    DamagedHooke { shear_modulus: f64, lame_lambda: f64 },
+    DamagedHooke {
+        shear_modulus: f64,
+        lame_lambda: f64,
+    },
 }
 
 /// Damage sources.
@@ -102,7 +110,12 @@ pub enum ElasticityFile {
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum DamageSourceFile {
     /// The truncated Frémond source.
-    Fremond { lambda_d: f64, lambda_w: f64, damage_floor: f64, strain_energy_cap: f64 },
+    Fremond {
+        lambda_d: f64,
+        lambda_w: f64,
+        damage_floor: f64,
+        strain_energy_cap: f64,
+    },
     /// φ as an expression in `beta`, `tr_eps`, `eps_eps`.
     Expression { expr: String },
 }
@@ -195,7 +208,8 @@ pub struct ExpressionDamageSource {
 
 impl<const D: usize> DamageSource<D> for ExpressionDamageSource {
     fn source(&self, strain: &Tensor<D>, damage: f64) -> f64 {
-        self.expr.eval_f64(&[damage, strain.trace(), strain.norm_squared()])
+        self.expr
+            .eval_f64(&[damage, strain.trace(), strain.norm_squared()])
     }
     fn validate(&self) -> contact_damage::Result<()> {
         for beta in [0.0, 0.5, 1.0] {
@@ -222,7 +236,8 @@ fn case_error(origin: &str, key: &str, message: impl Into<String>) -> VerifyErro
 
 /// Reads and parses a case file (TOML syntax errors carry line and column).
 pub fn read_case_file(path: &Path) -> Result<CaseFile, VerifyError> {
-    let text = std::fs::read_to_string(path).map_err(|e| VerifyError::io("reading case file", path, e))?;
+    let text =
+        std::fs::read_to_string(path).map_err(|e| VerifyError::io("reading case file", path, e))?;
     parse_case_file(&text, &path.display().to_string())
 }
 
@@ -238,19 +253,34 @@ pub fn parse_case_file(text: &str, origin: &str) -> Result<CaseFile, VerifyError
                 (line, column)
             })
             .unwrap_or((0, 0));
-        case_error(origin, &format!("line {line}, column {column}"), e.message().to_string())
+        case_error(
+            origin,
+            &format!("line {line}, column {column}"),
+            e.message().to_string(),
+        )
     })
 }
 
-fn parse_expr(origin: &str, key: &str, source: &str, variables: &[&str], constants: &BTreeMap<String, f64>) -> Result<Expr, VerifyError> {
-    Expr::parse(source, variables, constants).map_err(|e| case_error(origin, key, format!("`{source}`: {e}")))
+fn parse_expr(
+    origin: &str,
+    key: &str,
+    source: &str,
+    variables: &[&str],
+    constants: &BTreeMap<String, f64>,
+) -> Result<Expr, VerifyError> {
+    Expr::parse(source, variables, constants)
+        .map_err(|e| case_error(origin, key, format!("`{source}`: {e}")))
 }
 
 fn positive(origin: &str, key: &str, value: f64) -> Result<(), VerifyError> {
     if value.is_finite() && value > 0.0 {
         Ok(())
     } else {
-        Err(case_error(origin, key, format!("must be a positive number, got {value}")))
+        Err(case_error(
+            origin,
+            key,
+            format!("must be a positive number, got {value}"),
+        ))
     }
 }
 
@@ -259,11 +289,19 @@ impl<const D: usize> Case<D> {
     /// that u = 0 on Γ1, β ∈ [0, 1], |ξ_τ| < 1 on Γ3, η ∈ ∂ψ_K(β) and g ≥ 0 on Γ3.
     pub fn new(file: CaseFile, origin: &str) -> Result<Self, VerifyError> {
         if file.dim != D {
-            return Err(case_error(origin, "dim", format!("expected {D}, got {}", file.dim)));
+            return Err(case_error(
+                origin,
+                "dim",
+                format!("expected {D}, got {}", file.dim),
+            ));
         }
         positive(origin, "final_time", file.final_time)?;
         if file.domain.lower.len() != D || file.domain.upper.len() != D {
-            return Err(case_error(origin, "domain.lower/upper", format!("need {D} coordinates each")));
+            return Err(case_error(
+                origin,
+                "domain.lower/upper",
+                format!("need {D} coordinates each"),
+            ));
         }
         let axes = ["x", "y", "z"];
         let mut sides = [[BoundaryPart::Neumann; 2]; D];
@@ -278,14 +316,22 @@ impl<const D: usize> Case<D> {
                 _ => None,
             };
             let (Some(axis), Some(side)) = (axis.filter(|&a| a < D), side) else {
-                return Err(case_error(origin, &format!("domain.sides.{key}"), "unknown side (use x_min, x_max, y_min, y_max[, z_min, z_max])"));
+                return Err(case_error(
+                    origin,
+                    &format!("domain.sides.{key}"),
+                    "unknown side (use x_min, x_max, y_min, y_max[, z_min, z_max])",
+                ));
             };
             sides[axis][side] = match part.as_str() {
                 "clamped" => BoundaryPart::Dirichlet,
                 "traction" => BoundaryPart::Neumann,
                 "contact" => BoundaryPart::Contact,
                 other => {
-                    return Err(case_error(origin, &format!("domain.sides.{key}"), format!("unknown part `{other}` (use clamped, traction or contact)")))
+                    return Err(case_error(
+                        origin,
+                        &format!("domain.sides.{key}"),
+                        format!("unknown part `{other}` (use clamped, traction or contact)"),
+                    ))
                 }
             };
         }
@@ -293,23 +339,45 @@ impl<const D: usize> Case<D> {
         let laws_file = &file.laws;
         let viscosity: Arc<dyn Viscosity<D>> = match laws_file.viscosity {
             ViscosityFile::Linear { shear, bulk } => Arc::new(LinearViscosity { shear, bulk }),
-            ViscosityFile::Saturating { shear, bulk, extra_shear, rate_scale } => Arc::new(SaturatingViscosity {
+            ViscosityFile::Saturating {
+                shear,
+                bulk,
+                extra_shear,
+                rate_scale,
+            } => Arc::new(SaturatingViscosity {
                 linear: LinearViscosity { shear, bulk },
                 extra_shear,
                 rate_scale,
             }),
         };
-        let ElasticityFile::DamagedHooke { shear_modulus, lame_lambda } = laws_file.elasticity;
-        let elasticity = Arc::new(DamagedHooke { shear_modulus, lame_lambda });
+        let ElasticityFile::DamagedHooke {
+            shear_modulus,
+            lame_lambda,
+        } = laws_file.elasticity;
+        let elasticity = Arc::new(DamagedHooke {
+            shear_modulus,
+            lame_lambda,
+        });
         let damage_source: Arc<dyn DamageSource<D>> = match &laws_file.damage_source {
-            DamageSourceFile::Fremond { lambda_d, lambda_w, damage_floor, strain_energy_cap } => Arc::new(TruncatedFremond {
+            DamageSourceFile::Fremond {
+                lambda_d,
+                lambda_w,
+                damage_floor,
+                strain_energy_cap,
+            } => Arc::new(TruncatedFremond {
                 lambda_d: *lambda_d,
                 lambda_w: *lambda_w,
                 damage_floor: *damage_floor,
                 strain_energy_cap: *strain_energy_cap,
             }),
             DamageSourceFile::Expression { expr } => Arc::new(ExpressionDamageSource {
-                expr: parse_expr(origin, "laws.damage_source.expr", expr, &SOURCE_VARIABLES, constants)?,
+                expr: parse_expr(
+                    origin,
+                    "laws.damage_source.expr",
+                    expr,
+                    &SOURCE_VARIABLES,
+                    constants,
+                )?,
             }),
         };
         let contact = Arc::new(NormalComplianceCoulomb {
@@ -326,28 +394,52 @@ impl<const D: usize> Case<D> {
         };
         let law_error = |e: contact_damage::Error| case_error(origin, "laws", e.to_string());
         laws.viscosity.validate().map_err(law_error)?;
-        contact_damage::laws::Elasticity::<D>::validate(laws.elasticity.as_ref()).map_err(law_error)?;
+        contact_damage::laws::Elasticity::<D>::validate(laws.elasticity.as_ref())
+            .map_err(law_error)?;
         laws.damage_source.validate().map_err(law_error)?;
         laws.contact.validate().map_err(law_error)?;
         positive(origin, "laws.damage_diffusion", laws.damage_diffusion)?;
 
         let exact_file = &file.exact;
         if exact_file.u.len() != D {
-            return Err(case_error(origin, "exact.u", format!("need {D} components, got {}", exact_file.u.len())));
+            return Err(case_error(
+                origin,
+                "exact.u",
+                format!("need {D} components, got {}", exact_file.u.len()),
+            ));
         }
         let vector = |key: &str, sources: &[String]| -> Result<[Expr; D], VerifyError> {
             let parsed: Vec<Expr> = sources
                 .iter()
                 .enumerate()
-                .map(|(i, s)| parse_expr(origin, &format!("{key}[{i}]"), s, &FIELD_VARIABLES, constants))
+                .map(|(i, s)| {
+                    parse_expr(
+                        origin,
+                        &format!("{key}[{i}]"),
+                        s,
+                        &FIELD_VARIABLES,
+                        constants,
+                    )
+                })
                 .collect::<Result<_, _>>()?;
-            parsed.try_into().map_err(|_| case_error(origin, key, format!("need {D} components")))
+            parsed
+                .try_into()
+                .map_err(|_| case_error(origin, key, format!("need {D} components")))
         };
         let zero = || vec!["0".to_string(); D];
         let exact = ExactSolution {
             displacement: vector("exact.u", &exact_file.u)?,
-            damage: parse_expr(origin, "exact.beta", &exact_file.beta, &FIELD_VARIABLES, constants)?,
-            stick_traction: vector("exact.stick_traction", exact_file.stick_traction.as_ref().unwrap_or(&zero()))?,
+            damage: parse_expr(
+                origin,
+                "exact.beta",
+                &exact_file.beta,
+                &FIELD_VARIABLES,
+                constants,
+            )?,
+            stick_traction: vector(
+                "exact.stick_traction",
+                exact_file.stick_traction.as_ref().unwrap_or(&zero()),
+            )?,
             damage_multiplier: parse_expr(
                 origin,
                 "exact.damage_multiplier",
@@ -355,10 +447,20 @@ impl<const D: usize> Case<D> {
                 &FIELD_VARIABLES,
                 constants,
             )?,
-            gap: parse_expr(origin, "exact.gap", exact_file.gap.as_deref().unwrap_or("0"), &FIELD_VARIABLES, constants)?,
+            gap: parse_expr(
+                origin,
+                "exact.gap",
+                exact_file.gap.as_deref().unwrap_or("0"),
+                &FIELD_VARIABLES,
+                constants,
+            )?,
         };
         if exact.gap.used_variables().iter().any(|v| v == "t") {
-            return Err(case_error(origin, "exact.gap", "the gap g(x) must not depend on t"));
+            return Err(case_error(
+                origin,
+                "exact.gap",
+                "the gap g(x) must not depend on t",
+            ));
         }
         let case = Self {
             origin: origin.to_string(),
@@ -384,7 +486,9 @@ impl<const D: usize> Case<D> {
         let origin = &self.origin;
         let (lower, upper) = (self.lower(), self.upper());
         let per_axis: usize = if D == 2 { 25 } else { 11 };
-        let times: Vec<f64> = (0..=4).map(|i| self.file.final_time * i as f64 / 4.0).collect();
+        let times: Vec<f64> = (0..=4)
+            .map(|i| self.file.final_time * i as f64 / 4.0)
+            .collect();
         let total = per_axis.pow(D as u32);
         for index in 0..total {
             let mut rest = index;
@@ -393,7 +497,9 @@ impl<const D: usize> Case<D> {
                 rest /= per_axis;
                 i
             });
-            let x: [f64; D] = std::array::from_fn(|i| lower[i] + (upper[i] - lower[i]) * lattice[i] as f64 / (per_axis - 1) as f64);
+            let x: [f64; D] = std::array::from_fn(|i| {
+                lower[i] + (upper[i] - lower[i]) * lattice[i] as f64 / (per_axis - 1) as f64
+            });
             // which sides is x on?
             let mut parts = Vec::new();
             let mut normals = Vec::new();
@@ -411,7 +517,11 @@ impl<const D: usize> Case<D> {
                 let at = || format!("at x = {x:?}, t = {t}");
                 let beta = value(&self.exact.damage, &x, t);
                 if !(-1e-14..=1.0 + 1e-14).contains(&beta) || !beta.is_finite() {
-                    return Err(case_error(origin, "exact.beta", format!("β = {beta} is outside [0, 1] {}", at())));
+                    return Err(case_error(
+                        origin,
+                        "exact.beta",
+                        format!("β = {beta} is outside [0, 1] {}", at()),
+                    ));
                 }
                 let eta = value(&self.exact.damage_multiplier, &x, t);
                 let eta_ok = if beta >= 1.0 - 1e-14 {
@@ -434,20 +544,40 @@ impl<const D: usize> Case<D> {
                             for (i, component) in self.exact.displacement.iter().enumerate() {
                                 let u = value(component, &x, t);
                                 if u.abs() > 1e-12 {
-                                    return Err(case_error(origin, &format!("exact.u[{i}]"), format!("u = {u} ≠ 0 on Γ1 (clamped side) {}", at())));
+                                    return Err(case_error(
+                                        origin,
+                                        &format!("exact.u[{i}]"),
+                                        format!("u = {u} ≠ 0 on Γ1 (clamped side) {}", at()),
+                                    ));
                                 }
                             }
                         }
                         BoundaryPart::Contact => {
                             let gap = value(&self.exact.gap, &x, t);
                             if gap < 0.0 || !gap.is_finite() {
-                                return Err(case_error(origin, "exact.gap", format!("g = {gap} < 0 on Γ3 {}", at())));
+                                return Err(case_error(
+                                    origin,
+                                    "exact.gap",
+                                    format!("g = {gap} < 0 on Γ3 {}", at()),
+                                ));
                             }
-                            let xi: Vec<f64> = self.exact.stick_traction.iter().map(|e| value(e, &x, t)).collect();
+                            let xi: Vec<f64> = self
+                                .exact
+                                .stick_traction
+                                .iter()
+                                .map(|e| value(e, &x, t))
+                                .collect();
                             let normal_part: f64 = xi.iter().zip(normal).map(|(a, b)| a * b).sum();
-                            let tangential = (xi.iter().map(|v| v * v).sum::<f64>() - normal_part * normal_part).max(0.0).sqrt();
+                            let tangential = (xi.iter().map(|v| v * v).sum::<f64>()
+                                - normal_part * normal_part)
+                                .max(0.0)
+                                .sqrt();
                             if tangential >= 1.0 {
-                                return Err(case_error(origin, "exact.stick_traction", format!("|ξ_τ| = {tangential} ≥ 1 on Γ3 {}", at())));
+                                return Err(case_error(
+                                    origin,
+                                    "exact.stick_traction",
+                                    format!("|ξ_τ| = {tangential} ≥ 1 on Γ3 {}", at()),
+                                ));
                             }
                         }
                         BoundaryPart::Neumann => {}
@@ -460,11 +590,21 @@ impl<const D: usize> Case<D> {
 
     /// The box mesh with `cells` intervals per side.
     pub fn mesh(&self, cells: usize) -> Result<Mesh<D>, VerifyError> {
-        Ok(Mesh::box_mesh(self.lower(), self.upper(), [cells; D], self.sides)?)
+        Ok(Mesh::box_mesh(
+            self.lower(),
+            self.upper(),
+            [cells; D],
+            self.sides,
+        )?)
     }
 
     /// The solver problem with the manufactured data (SPEC §4) for one run.
-    pub fn problem(&self, cells: usize, degree: usize, steps: usize) -> Result<Problem<D>, VerifyError> {
+    pub fn problem(
+        &self,
+        cells: usize,
+        degree: usize,
+        steps: usize,
+    ) -> Result<Problem<D>, VerifyError> {
         let laws = self.laws.clone();
         let exact = Arc::new(self.exact.clone());
         let (e0, l0) = (exact.clone(), laws.clone());
@@ -490,7 +630,9 @@ impl<const D: usize> Case<D> {
                 damage_supply: Some(Arc::new(move |x, t| eq.damage_supply(&lq, x, t))),
                 damage_flux: Some(Arc::new(move |x, t, n| ef.damage_flux(&lf, x, t, n))),
                 gap: Arc::new(move |x| value(&eg.gap, x, 0.0)),
-                initial_displacement: Arc::new(move |x| std::array::from_fn(|i| value(&eu.displacement[i], x, 0.0))),
+                initial_displacement: Arc::new(move |x| {
+                    std::array::from_fn(|i| value(&eu.displacement[i], x, 0.0))
+                }),
                 initial_damage: Arc::new(move |x| value(&eb.damage, x, 0.0)),
             },
             final_time: self.file.final_time,

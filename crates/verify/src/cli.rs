@@ -10,9 +10,15 @@ use std::path::PathBuf;
 /// Built-in cases: (name, TOML text). The files live in `verification/`.
 pub const BUILT_IN_CASES: [(&str, &str); 4] = [
     ("slip2d", include_str!("../../../verification/slip2d.toml")),
-    ("zones2d", include_str!("../../../verification/zones2d.toml")),
+    (
+        "zones2d",
+        include_str!("../../../verification/zones2d.toml"),
+    ),
     ("slip3d", include_str!("../../../verification/slip3d.toml")),
-    ("zones3d", include_str!("../../../verification/zones3d.toml")),
+    (
+        "zones3d",
+        include_str!("../../../verification/zones3d.toml"),
+    ),
 ];
 
 /// Manufactured-solution convergence verification of the contact-damage scheme (Theorem 5.2).
@@ -34,7 +40,7 @@ pub struct Cli {
     /// Which studies to run (comma-separated: h, k, diagonal).
     #[arg(long, value_delimiter = ',', default_value = "h,k,diagonal")]
     pub studies: Vec<String>,
-    /// Output folder (default: reports/<case>).
+    /// Output folder (default: reports/<case>/l<order>).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Worker threads (default: all cores).
@@ -49,7 +55,11 @@ pub fn load_case(cli: &Cli) -> Result<(CaseFile, String), VerifyError> {
         None => match cli.dim {
             2 => "zones2d".to_string(),
             3 => "zones3d".to_string(),
-            other => return Err(VerifyError::InvalidInput(format!("--dim must be 2 or 3, got {other}"))),
+            other => {
+                return Err(VerifyError::InvalidInput(format!(
+                    "--dim must be 2 or 3, got {other}"
+                )))
+            }
         },
     };
     if let Some((builtin, text)) = BUILT_IN_CASES.iter().find(|(n, _)| *n == name) {
@@ -68,10 +78,16 @@ fn truncate<T: Clone>(values: &[T], levels: Option<usize>) -> Vec<T> {
 }
 
 /// Runs the requested studies of a case in dimension D.
-pub fn run_studies<const D: usize>(case: &Case<D>, cli: &Cli) -> Result<Vec<StudyResult>, VerifyError> {
+pub fn run_studies<const D: usize>(
+    case: &Case<D>,
+    cli: &Cli,
+) -> Result<Vec<StudyResult>, VerifyError> {
     let key = format!("order{}", cli.order);
     let set = case.file.studies.get(&key).ok_or_else(|| {
-        VerifyError::InvalidInput(format!("case `{}` defines no studies for l = {} (no [studies.{key}])", case.origin, cli.order))
+        VerifyError::InvalidInput(format!(
+            "case `{}` defines no studies for l = {} (no [studies.{key}])",
+            case.origin, cli.order
+        ))
     })?;
     let mut results = Vec::new();
     for name in &cli.studies {
@@ -99,7 +115,11 @@ pub fn run_studies<const D: usize>(case: &Case<D>, cli: &Cli) -> Result<Vec<Stud
                     results.push(time_study(case, cli.order, &study)?);
                 }
             }
-            other => return Err(VerifyError::InvalidInput(format!("unknown study `{other}` (use h, k, diagonal)"))),
+            other => {
+                return Err(VerifyError::InvalidInput(format!(
+                    "unknown study `{other}` (use h, k, diagonal)"
+                )))
+            }
         }
     }
     Ok(results)
@@ -117,7 +137,17 @@ pub fn print_study(study: &StudyResult) {
     );
     println!(
         "{:>6} {:>6} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>9} {:>7}",
-        "cells", "steps", "h", "k", "E_u", "E_du", "E_beta", "E_gradb", "E_total", "max KKT", "time s"
+        "cells",
+        "steps",
+        "h",
+        "k",
+        "E_u",
+        "E_du",
+        "E_beta",
+        "E_gradb",
+        "E_total",
+        "max KKT",
+        "time s"
     );
     for run in &study.runs {
         println!(
@@ -154,7 +184,10 @@ pub fn print_study(study: &StudyResult) {
 /// Runs the command line; returns whether every verdict passed.
 pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
     if !(1..=2).contains(&cli.order) {
-        return Err(VerifyError::InvalidInput(format!("--order must be 1 or 2, got {}", cli.order)));
+        return Err(VerifyError::InvalidInput(format!(
+            "--order must be 1 or 2, got {}",
+            cli.order
+        )));
     }
     if let Some(threads) = cli.threads {
         rayon::ThreadPoolBuilder::new()
@@ -169,14 +202,25 @@ pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
     let studies = match dim {
         2 => run_studies(&Case::<2>::new(file, &origin)?, &cli)?,
         3 => run_studies(&Case::<3>::new(file, &origin)?, &cli)?,
-        other => return Err(VerifyError::InvalidInput(format!("{origin}: dim must be 2 or 3, got {other}"))),
+        other => {
+            return Err(VerifyError::InvalidInput(format!(
+                "{origin}: dim must be 2 or 3, got {other}"
+            )))
+        }
     };
     for study in &studies {
         print_study(study);
     }
-    let out = cli.out.clone().unwrap_or_else(|| PathBuf::from("reports").join(&name));
+    let out = cli
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("reports").join(&name).join(format!("l{}", cli.order)));
     let written = write_reports(&out, &name, &origin, dim, &studies)?;
-    println!("\ncase {name} ({origin}), d = {dim}, l = {}: {:.1} s", cli.order, started.elapsed().as_secs_f64());
+    println!(
+        "\ncase {name} ({origin}), d = {dim}, l = {}: {:.1} s",
+        cli.order,
+        started.elapsed().as_secs_f64()
+    );
     for path in written {
         println!("wrote {}", path.display());
     }

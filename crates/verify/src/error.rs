@@ -33,7 +33,11 @@ pub enum VerifyError {
     },
     /// A case file is invalid: names the file, the key and the problem.
     #[error("case `{file}`, key `{key}`: {message}")]
-    Case { file: String, key: String, message: String },
+    Case {
+        file: String,
+        key: String,
+        message: String,
+    },
     /// Invalid input of the harness other than an expression (case-file values, options).
     #[error("invalid input: {0}")]
     InvalidInput(String),

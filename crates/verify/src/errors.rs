@@ -41,11 +41,25 @@ pub struct ErrorComponents {
 
 impl ErrorComponents {
     /// Names of the components, in the order of [`ErrorComponents::values`].
-    pub const NAMES: [&'static str; 6] = ["displacement", "difference_quotient", "damage", "damage_gradient", "total", "velocity"];
+    pub const NAMES: [&'static str; 6] = [
+        "displacement",
+        "difference_quotient",
+        "damage",
+        "damage_gradient",
+        "total",
+        "velocity",
+    ];
 
     /// The components in the order of [`ErrorComponents::NAMES`].
     pub fn values(&self) -> [f64; 6] {
-        [self.displacement, self.difference_quotient, self.damage, self.damage_gradient, self.total, self.velocity]
+        [
+            self.displacement,
+            self.difference_quotient,
+            self.damage,
+            self.damage_gradient,
+            self.total,
+            self.velocity,
+        ]
     }
 }
 
@@ -117,7 +131,12 @@ pub struct ErrorTracker<const D: usize> {
 
 impl<const D: usize> ErrorTracker<D> {
     /// A tracker for a run with N = `steps` steps of size k on `space`.
-    pub fn new(space: &LagrangeSpace<D>, reference: Reference<D>, time_step: f64, steps: usize) -> Self {
+    pub fn new(
+        space: &LagrangeSpace<D>,
+        reference: Reference<D>,
+        time_step: f64,
+        steps: usize,
+    ) -> Self {
         let rule = QuadratureRule::<D>::simplex(2 * space.degree() + 3);
         let tabulation = Tabulation::cell_rule(space.element(), &rule);
         let mut tracker = Self {
@@ -135,21 +154,31 @@ impl<const D: usize> ErrorTracker<D> {
                 let exact = exact.clone();
                 tracker.previous_strain = tracker.exact_strains(space, &exact, 0.0);
             }
-            Reference::Discrete(states) => tracker.previous_displacement = states[0].displacement.clone(),
+            Reference::Discrete(states) => {
+                tracker.previous_displacement = states[0].displacement.clone()
+            }
         }
         tracker
     }
 
-    fn exact_strains(&self, space: &LagrangeSpace<D>, exact: &ExactSolution<D>, t: f64) -> Vec<Tensor<D>> {
+    fn exact_strains(
+        &self,
+        space: &LagrangeSpace<D>,
+        exact: &ExactSolution<D>,
+        t: f64,
+    ) -> Vec<Tensor<D>> {
         let nq = self.tabulation.len();
         let mut strains = vec![Tensor::<D>::zeros(); space.mesh().num_cells() * nq];
-        strains.par_chunks_mut(nq).enumerate().for_each(|(cell, out)| {
-            let geometry = space.geometry(cell);
-            for (q, slot) in out.iter_mut().enumerate() {
-                let x = geometry.point(&self.tabulation.points[q]);
-                *slot = sym(&exact_point(exact, &x, t).displacement_gradient);
-            }
-        });
+        strains
+            .par_chunks_mut(nq)
+            .enumerate()
+            .for_each(|(cell, out)| {
+                let geometry = space.geometry(cell);
+                for (q, slot) in out.iter_mut().enumerate() {
+                    let x = geometry.point(&self.tabulation.points[q]);
+                    *slot = sym(&exact_point(exact, &x, t).displacement_gradient);
+                }
+            });
         strains
     }
 
@@ -189,7 +218,11 @@ impl<const D: usize> ErrorTracker<D> {
                     let weight = tab.weights[q] * geometry.det;
                     let strain_h = field_strain(nodes, &grads[..n_nodes], &state.displacement);
                     let rate_h = field_strain(nodes, &grads[..n_nodes], &state.velocity);
-                    let beta_h: f64 = nodes.iter().zip(values).map(|(&node, v)| state.damage[node] * v).sum();
+                    let beta_h: f64 = nodes
+                        .iter()
+                        .zip(values)
+                        .map(|(&node, v)| state.damage[node] * v)
+                        .sum();
                     let grad_beta_h: SVector<f64, D> = nodes
                         .iter()
                         .enumerate()
@@ -200,12 +233,24 @@ impl<const D: usize> ErrorTracker<D> {
                         let point = exact_point(exact, &x, t);
                         let strain = sym(&point.displacement_gradient);
                         let quotient = (strain - previous_strain[cell * nq + q]) / k;
-                        (strain, quotient, Some(sym(&point.velocity_gradient)), point.damage, point.damage_gradient)
+                        (
+                            strain,
+                            quotient,
+                            Some(sym(&point.velocity_gradient)),
+                            point.damage,
+                            point.damage_gradient,
+                        )
                     } else {
                         let reference = reference_state.expect("discrete reference state");
-                        let strain = field_strain(nodes, &grads[..n_nodes], &reference.displacement);
-                        let previous = field_strain(nodes, &grads[..n_nodes], previous_displacement);
-                        let beta: f64 = nodes.iter().zip(values).map(|(&node, v)| reference.damage[node] * v).sum();
+                        let strain =
+                            field_strain(nodes, &grads[..n_nodes], &reference.displacement);
+                        let previous =
+                            field_strain(nodes, &grads[..n_nodes], previous_displacement);
+                        let beta: f64 = nodes
+                            .iter()
+                            .zip(values)
+                            .map(|(&node, v)| reference.damage[node] * v)
+                            .sum();
                         let grad_beta = nodes
                             .iter()
                             .enumerate()
@@ -231,11 +276,17 @@ impl<const D: usize> ErrorTracker<D> {
         self.errors.difference_quotient = self.errors.difference_quotient.max(sums[1].sqrt());
         self.errors.damage = self.errors.damage.max(sums[2].sqrt());
         self.gradient_sum += k * sums[3];
-        self.errors.velocity = if sums[4].is_nan() { f64::NAN } else { self.errors.velocity.max(sums[4].sqrt()) };
+        self.errors.velocity = if sums[4].is_nan() {
+            f64::NAN
+        } else {
+            self.errors.velocity.max(sums[4].sqrt())
+        };
         match &self.reference {
             Reference::Exact(_) => self.previous_strain = new_strain,
             Reference::Discrete(_) => {
-                self.previous_displacement = reference_state.map(|s| s.displacement.clone()).unwrap_or_default()
+                self.previous_displacement = reference_state
+                    .map(|s| s.displacement.clone())
+                    .unwrap_or_default()
             }
         }
     }
@@ -244,7 +295,10 @@ impl<const D: usize> ErrorTracker<D> {
     pub fn finish(&self) -> ErrorComponents {
         let mut errors = self.errors;
         errors.damage_gradient = self.gradient_sum.sqrt();
-        errors.total = errors.displacement + errors.difference_quotient + errors.damage + errors.damage_gradient;
+        errors.total = errors.displacement
+            + errors.difference_quotient
+            + errors.damage
+            + errors.damage_gradient;
         errors
     }
 }

@@ -135,8 +135,11 @@ impl<const D: usize> ExactSolution<D> {
         let velocity = SVector::<f64, D>::from_fn(|i, _| jets[i].rate);
         let displacement_gradient = SMatrix::<f64, D, D>::from_fn(|i, j| jets[i].gradient[j]);
         let velocity_gradient = SMatrix::<f64, D, D>::from_fn(|i, j| jets[i].rate_gradient[j]);
-        let displacement_second = std::array::from_fn(|j| SMatrix::<f64, D, D>::from_fn(|i, k| jets[i].hessian[(k, j)]));
-        let velocity_second = std::array::from_fn(|j| SMatrix::<f64, D, D>::from_fn(|i, k| jets[i].rate_hessian[(k, j)]));
+        let displacement_second =
+            std::array::from_fn(|j| SMatrix::<f64, D, D>::from_fn(|i, k| jets[i].hessian[(k, j)]));
+        let velocity_second = std::array::from_fn(|j| {
+            SMatrix::<f64, D, D>::from_fn(|i, k| jets[i].rate_hessian[(k, j)])
+        });
         let (damage, damage_gradient) = value_gradient(&self.damage, x, t);
         PointState {
             displacement,
@@ -153,7 +156,9 @@ impl<const D: usize> ExactSolution<D> {
     /// σ = 𝒜ε(u̇) + G(ε(u), β) at (x, t) (2.1).
     pub fn stress(&self, laws: &Laws<D>, state: &PointState<D>) -> Tensor<D> {
         laws.viscosity.stress(&symmetric(&state.velocity_gradient))
-            + laws.elasticity.stress(&symmetric(&state.displacement_gradient), state.damage)
+            + laws
+                .elasticity
+                .stress(&symmetric(&state.displacement_gradient), state.damage)
     }
 
     /// f0 = −Div σ by the chain rule: ∂_j σ = 𝒜'(ε(u̇))[∂_j ε(u̇)] + ∂_ε G[∂_j ε(u)] + ∂_β G ∂_j β.
@@ -165,8 +170,14 @@ impl<const D: usize> ExactSolution<D> {
         let damage_slope = laws.elasticity.damage_derivative(&strain, beta);
         let mut divergence = SVector::<f64, D>::zeros();
         for j in 0..D {
-            let d_sigma = laws.viscosity.tangent(&rate, &symmetric(&state.velocity_second[j]))
-                + laws.elasticity.strain_derivative(&strain, beta, &symmetric(&state.displacement_second[j]))
+            let d_sigma = laws
+                .viscosity
+                .tangent(&rate, &symmetric(&state.velocity_second[j]))
+                + laws.elasticity.strain_derivative(
+                    &strain,
+                    beta,
+                    &symmetric(&state.displacement_second[j]),
+                )
                 + damage_slope * state.damage_gradient[j];
             for i in 0..D {
                 divergence[i] += d_sigma[(i, j)];
@@ -183,7 +194,13 @@ impl<const D: usize> ExactSolution<D> {
     }
 
     /// The friction direction ξ̂ of SPEC §4: u̇_τ/|u̇_τ| where the body slips, else the stick field ξ_τ.
-    pub fn friction_direction(&self, state: &PointState<D>, x: &[f64; D], t: f64, normal: &SVector<f64, D>) -> SVector<f64, D> {
+    pub fn friction_direction(
+        &self,
+        state: &PointState<D>,
+        x: &[f64; D],
+        t: f64,
+        normal: &SVector<f64, D>,
+    ) -> SVector<f64, D> {
         let slip = state.velocity - normal * state.velocity.dot(normal);
         let speed = slip.norm();
         if speed > 0.0 {
@@ -195,12 +212,23 @@ impl<const D: usize> ExactSolution<D> {
     }
 
     /// Penetration r = u_ν − g at a point of Γ3.
-    pub fn penetration(&self, state: &PointState<D>, x: &[f64; D], normal: &SVector<f64, D>) -> f64 {
+    pub fn penetration(
+        &self,
+        state: &PointState<D>,
+        x: &[f64; D],
+        normal: &SVector<f64, D>,
+    ) -> f64 {
         state.displacement.dot(normal) - value(&self.gap, x, 0.0)
     }
 
     /// f3 = σν + p_ν(u_ν − g) ν + p_τ(u_ν − g) ξ̂ on Γ3 (SPEC §4).
-    pub fn contact_traction(&self, laws: &Laws<D>, x: &[f64; D], t: f64, normal: &[f64; D]) -> [f64; D] {
+    pub fn contact_traction(
+        &self,
+        laws: &Laws<D>,
+        x: &[f64; D],
+        t: f64,
+        normal: &[f64; D],
+    ) -> [f64; D] {
         let state = self.point_state(x, t);
         let nu = SVector::<f64, D>::from_column_slice(normal);
         let r = self.penetration(&state, x, &nu);
@@ -219,7 +247,8 @@ impl<const D: usize> ExactSolution<D> {
             gradient.set_row(i, &row.transpose());
         }
         let strain = symmetric(&gradient);
-        damage.rate - laws.damage_diffusion * damage.hessian.trace() + value(&self.damage_multiplier, x, t)
+        damage.rate - laws.damage_diffusion * damage.hessian.trace()
+            + value(&self.damage_multiplier, x, t)
             - laws.damage_source.source(&strain, damage.value)
     }
 

@@ -84,7 +84,13 @@ pub struct Summary<'a> {
 }
 
 /// Writes every report file of `studies` into `out`; returns the written paths.
-pub fn write_reports(out: &Path, case: &str, origin: &str, dim: usize, studies: &[StudyResult]) -> Result<Vec<PathBuf>, VerifyError> {
+pub fn write_reports(
+    out: &Path,
+    case: &str,
+    origin: &str,
+    dim: usize,
+    studies: &[StudyResult],
+) -> Result<Vec<PathBuf>, VerifyError> {
     let mut written = Vec::new();
     let rows: Vec<ErrorRow> = studies
         .iter()
@@ -144,7 +150,12 @@ pub fn write_reports(out: &Path, case: &str, origin: &str, dim: usize, studies: 
                 points: study
                     .runs
                     .iter()
-                    .map(|r| (if study.variable == "h" { r.h } else { r.k }, r.errors.values()[c]))
+                    .map(|r| {
+                        (
+                            if study.variable == "h" { r.h } else { r.k },
+                            r.errors.values()[c],
+                        )
+                    })
                     .collect(),
             })
             .collect();

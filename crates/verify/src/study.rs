@@ -172,12 +172,19 @@ pub fn least_squares_slope(points: &[(f64, f64)]) -> f64 {
 }
 
 /// Rates of all components over runs, against the size `size(run)` (h or k).
-pub fn rates(runs: &[RunResult], size: impl Fn(&RunResult) -> f64, expected: f64) -> Vec<ComponentRates> {
+pub fn rates(
+    runs: &[RunResult],
+    size: impl Fn(&RunResult) -> f64,
+    expected: f64,
+) -> Vec<ComponentRates> {
     ErrorComponents::NAMES
         .iter()
         .enumerate()
         .map(|(c, name)| {
-            let points: Vec<(f64, f64)> = runs.iter().map(|r| (size(r), r.errors.values()[c])).collect();
+            let points: Vec<(f64, f64)> = runs
+                .iter()
+                .map(|r| (size(r), r.errors.values()[c]))
+                .collect();
             let pairwise = points
                 .windows(2)
                 .map(|w| (w[0].1 / w[1].1).ln() / (w[0].0 / w[1].0).ln())
@@ -231,7 +238,12 @@ pub fn run_one<const D: usize>(
 }
 
 /// Runs a reference simulation and keeps every state (for the k-study).
-pub fn reference_states<const D: usize>(case: &Case<D>, degree: usize, cells: usize, steps: usize) -> Result<Vec<State>, VerifyError> {
+pub fn reference_states<const D: usize>(
+    case: &Case<D>,
+    degree: usize,
+    cells: usize,
+    steps: usize,
+) -> Result<Vec<State>, VerifyError> {
     let mut simulation = Simulation::new(case.problem(cells, degree, steps)?)?;
     let mut states = vec![simulation.state().clone()];
     simulation.run(|report| {
@@ -244,9 +256,11 @@ pub fn reference_states<const D: usize>(case: &Case<D>, degree: usize, cells: us
 fn progress(total: usize, label: &str) -> ProgressBar {
     let bar = ProgressBar::new(total as u64);
     bar.set_style(
-        ProgressStyle::with_template("{prefix:>12} [{bar:30}] {pos}/{len} runs, {elapsed} elapsed, ~{eta} left")
-            .unwrap_or_else(|_| ProgressStyle::default_bar())
-            .progress_chars("=> "),
+        ProgressStyle::with_template(
+            "{prefix:>12} [{bar:30}] {pos}/{len} runs, {elapsed} elapsed, ~{eta} left",
+        )
+        .unwrap_or_else(|_| ProgressStyle::default_bar())
+        .progress_chars("=> "),
     );
     bar.set_prefix(label.to_string());
     if std::env::var_os("CI").is_some() {
@@ -256,14 +270,22 @@ fn progress(total: usize, label: &str) -> ProgressBar {
 }
 
 /// Runs a level study (h or diagonal), all levels in parallel.
-pub fn level_study<const D: usize>(case: &Case<D>, degree: usize, kind: StudyKind, study: &LevelStudy) -> Result<StudyResult, VerifyError> {
+pub fn level_study<const D: usize>(
+    case: &Case<D>,
+    degree: usize,
+    kind: StudyKind,
+    study: &LevelStudy,
+) -> Result<StudyResult, VerifyError> {
     if study.cells.len() != study.steps.len() || study.cells.len() < 2 {
         return Err(VerifyError::InvalidInput(format!(
             "{} study of order {degree}: `cells` and `steps` need the same length ≥ 2",
             kind.name()
         )));
     }
-    let bar = progress(study.cells.len(), &format!("{}-study l={degree}", kind.name()));
+    let bar = progress(
+        study.cells.len(),
+        &format!("{}-study l={degree}", kind.name()),
+    );
     let runs: Vec<RunResult> = study
         .cells
         .par_iter()
@@ -298,15 +320,29 @@ pub fn level_study<const D: usize>(case: &Case<D>, degree: usize, kind: StudyKin
 }
 
 /// Runs a k-study: a reference run with `reference_steps`, then every level in parallel.
-pub fn time_study<const D: usize>(case: &Case<D>, degree: usize, study: &TimeStudy) -> Result<StudyResult, VerifyError> {
-    if study.steps.len() < 2 || study.steps.iter().any(|&s| s == 0 || study.reference_steps % s != 0) {
+pub fn time_study<const D: usize>(
+    case: &Case<D>,
+    degree: usize,
+    study: &TimeStudy,
+) -> Result<StudyResult, VerifyError> {
+    if study.steps.len() < 2
+        || study
+            .steps
+            .iter()
+            .any(|&s| s == 0 || study.reference_steps % s != 0)
+    {
         return Err(VerifyError::InvalidInput(format!(
             "k study of order {degree}: `reference_steps` = {} must be a multiple of every entry of `steps` {:?} (at least two levels)",
             study.reference_steps, study.steps
         )));
     }
     let bar = progress(study.steps.len() + 1, &format!("k-study l={degree}"));
-    let reference = Arc::new(reference_states(case, degree, study.cells, study.reference_steps)?);
+    let reference = Arc::new(reference_states(
+        case,
+        degree,
+        study.cells,
+        study.reference_steps,
+    )?);
     bar.inc(1);
     let coarse: Vec<Arc<Vec<State>>> = study
         .steps
