@@ -18,6 +18,7 @@ pub mod damage;
 pub mod element;
 pub mod error;
 pub mod friction;
+pub mod gmsh;
 pub mod laws;
 pub mod linalg;
 pub mod mesh;
