@@ -19,7 +19,8 @@
 //!
 //! Other sections (`$Periodic`, `$NodeData`, `$Comments`, …) are skipped; partitioned meshes
 //! (`$PartitionedEntities`) are rejected. Sections must come in the order Gmsh writes them:
-//! `$MeshFormat`, `$PhysicalNames`, `$Entities`, `$Nodes`, `$Elements`.
+//! `$MeshFormat`, `$PhysicalNames`, `$Entities`, `$Nodes`, `$Elements`; all but
+//! `$PhysicalNames` are required (Gmsh always writes them).
 //!
 //! Second-order elements (3-node lines, type 8; 6-node triangles, type 9; 10-node tetrahedra,
 //! type 11) are accepted, but only their vertex nodes are used: the P2 space
@@ -288,7 +289,12 @@ impl Record<'_> {
         } else {
             Err(self.fail_with(
                 format!("{what} ({count} fields)"),
-                format!("{} fields in {}", self.fields.len(), self.quoted()),
+                format!(
+                    "{} ({} field{})",
+                    self.quoted(),
+                    self.fields.len(),
+                    if self.fields.len() == 1 { "" } else { "s" }
+                ),
             ))
         }
     }
@@ -1290,10 +1296,7 @@ mod tests {
             )),
             "{message}"
         );
-        assert!(
-            message.contains("found 1 fields in `$EndNodes`"),
-            "{message}"
-        );
+        assert!(message.contains("found `$EndNodes` (1 field)"), "{message}");
         // The file ends inside $Nodes.
         let end = square_text();
         let cut = &end[..end.find("0.5 0 0\n").unwrap()];

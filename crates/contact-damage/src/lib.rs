@@ -27,5 +27,6 @@ pub mod quadrature;
 pub mod scheme;
 pub mod space;
 pub mod velocity;
+pub mod vtk;
 
 pub use error::{Error, Result};
