@@ -58,6 +58,7 @@ pub mod damage;
 pub mod element;
 pub mod error;
 pub mod friction;
+pub mod gmsh;
 pub mod laws;
 pub mod linalg;
 pub mod mesh;
@@ -66,6 +67,7 @@ pub mod quadrature;
 pub mod scheme;
 pub mod space;
 pub mod velocity;
+pub mod vtk;
 
 pub use error::{Error, Result};
 

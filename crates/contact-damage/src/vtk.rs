@@ -1,0 +1,1162 @@
+//! Output for ParaView: VTK XML unstructured grids (`.vtu`, ASCII) of fields on a
+//! [`LagrangeSpace`], boundary datasets of one part of Γ, and PVD collections of time steps.
+//!
+//! Cells are written with their space nodes: P1 as `VTK_TRIANGLE`/`VTK_TETRA`, P2 as
+//! `VTK_QUADRATIC_TRIANGLE`/`VTK_QUADRATIC_TETRA` (boundary facets: `VTK_LINE`/`VTK_TRIANGLE`
+//! and `VTK_QUADRATIC_EDGE`/`VTK_QUADRATIC_TRIANGLE`). VTK numbers the edge nodes of quadratic
+//! simplices by the edges (0,1), (1,2), (2,0) and, for the tetrahedron, (0,3), (1,3), (2,3);
+//! the permutation from the space's [`simplex_edges`] order is computed by matching edges, not
+//! assumed (it is the identity for the current edge order). In 2D, points get z = 0, vectors a
+//! zero third component and tensors are embedded in 3×3 with zeros.
+//!
+//! Every file is written atomically: into a temporary file in the same directory, synced, then
+//! renamed over the target, so a reader (ParaView polling a running simulation) never sees a
+//! partial file. All inputs are validated before any file is touched.
+
+use std::fs::{self, File};
+use std::io::{self, BufWriter, Write};
+use std::path::Path;
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use crate::element::simplex_edges;
+use crate::mesh::BoundaryPart;
+use crate::space::LagrangeSpace;
+use crate::{Error, Result};
+
+/// A field given at the nodes of the space (all nodes, in the space's numbering).
+#[derive(Debug, Clone, Copy)]
+pub enum PointData<'a> {
+    /// One value per node (e.g. the damage β).
+    Scalar {
+        /// Array name shown by ParaView.
+        name: &'a str,
+        /// `values[node]`.
+        values: &'a [f64],
+    },
+    /// D components per node, node-major (`values[node * D + i]`, e.g. the displacement u).
+    Vector {
+        /// Array name shown by ParaView.
+        name: &'a str,
+        /// `values[node * D + i]`.
+        values: &'a [f64],
+    },
+}
+
+/// A field given per cell of the mesh.
+#[derive(Debug, Clone, Copy)]
+pub enum CellData<'a> {
+    /// One value per cell.
+    Scalar {
+        /// Array name shown by ParaView.
+        name: &'a str,
+        /// `values[cell]`.
+        values: &'a [f64],
+    },
+    /// A D×D tensor per cell, row-major (`values[cell * D * D + i * D + j]`, e.g. the stress σ).
+    Tensor {
+        /// Array name shown by ParaView.
+        name: &'a str,
+        /// `values[cell * D * D + i * D + j]`.
+        values: &'a [f64],
+    },
+}
+
+/// VTK cell type codes.
+const VTK_LINE: u8 = 3;
+const VTK_TRIANGLE: u8 = 5;
+const VTK_TETRA: u8 = 10;
+const VTK_QUADRATIC_EDGE: u8 = 21;
+const VTK_QUADRATIC_TRIANGLE: u8 = 22;
+const VTK_QUADRATIC_TETRA: u8 = 24;
+
+/// VTK's edge order of the quadratic edge, triangle and tetrahedron (vtkQuadraticTetra: mid-edge
+/// nodes on (0,1), (1,2), (2,0), (0,3), (1,3), (2,3)).
+const VTK_EDGES: [[usize; 2]; 6] = [[0, 1], [1, 2], [2, 0], [0, 3], [1, 3], [2, 3]];
+
+/// VTK cell type and local node order of a simplex of dimension `dim` ∈ {1, 2, 3} with the
+/// space's local numbering (vertices, then edges in [`simplex_edges`]`(dim)` order):
+/// `order[k]` is the local space node written as VTK node k.
+fn vtk_cell(dim: usize, degree: usize) -> (u8, Vec<usize>) {
+    let vertices: Vec<usize> = (0..=dim).collect();
+    let (linear, quadratic) = match dim {
+        1 => (VTK_LINE, VTK_QUADRATIC_EDGE),
+        2 => (VTK_TRIANGLE, VTK_QUADRATIC_TRIANGLE),
+        _ => (VTK_TETRA, VTK_QUADRATIC_TETRA),
+    };
+    if degree == 1 {
+        return (linear, vertices);
+    }
+    let edges = simplex_edges(dim);
+    let mut order = vertices;
+    for &[a, b] in &VTK_EDGES[..edges.len()] {
+        let local = edges
+            .iter()
+            .position(|&[p, q]| (p, q) == (a, b) || (p, q) == (b, a))
+            .expect("VTK and the space number the edges of the same simplex");
+        order.push(dim + 1 + local);
+    }
+    (quadratic, order)
+}
+
+/// Writes the space's mesh with point and cell fields as an ASCII `.vtu` UnstructuredGrid:
+/// the points are the space's nodes (vertices, then P2 edge midpoints), the cells its cells.
+///
+/// Errors: a field whose length is not nodes × components (D for vectors) or cells × components
+/// (D² for tensors), an empty, duplicated (within point or within cell data) or non-printable
+/// name ([`Error::InvalidInput`] naming the field); a non-finite value ([`Error::NonFinite`]
+/// naming the field and the entry); D ∉ {2, 3}; an IO failure ([`Error::InvalidInput`] naming
+/// the path and the IO error).
+pub fn write_vtu<const D: usize>(
+    path: &Path,
+    space: &LagrangeSpace<D>,
+    points: &[PointData],
+    cells: &[CellData],
+) -> Result<()> {
+    check_dimension::<D>()?;
+    let mesh = space.mesh();
+    let num_nodes = space.num_nodes();
+    let num_cells = mesh.num_cells();
+    let point_arrays = point_arrays::<D>(points, num_nodes, None)?;
+    let cell_arrays = cell_arrays::<D>(cells, num_cells)?;
+    let (cell_type, order) = vtk_cell(D, space.degree());
+    let mut connectivity = Vec::with_capacity(num_cells * order.len());
+    for c in 0..num_cells {
+        let nodes = space.cell_nodes(c);
+        connectivity.extend(order.iter().map(|&k| nodes[k]));
+    }
+    let grid = Grid {
+        points: space.nodes().iter().map(embed::<D>).collect(),
+        connectivity,
+        nodes_per_cell: order.len(),
+        cell_type,
+    };
+    write_atomically(path, |out| {
+        write_grid(out, &grid, &point_arrays, &cell_arrays)
+    })
+}
+
+/// Writes the boundary facets of one part (e.g. Γ3) as an ASCII `.vtu`: lines in 2D, triangles
+/// in 3D (quadratic for P2), on the space nodes of those facets, with point fields given on all
+/// space nodes (as for [`write_vtu`]) and restricted to them. Facets are oriented so that their
+/// normal (2D: the tangent turned clockwise; 3D: right-hand rule) is the outward normal ν of Ω.
+/// A part without facets gives a valid empty dataset. Errors as for [`write_vtu`].
+pub fn write_boundary_vtu<const D: usize>(
+    path: &Path,
+    space: &LagrangeSpace<D>,
+    part: BoundaryPart,
+    points: &[PointData],
+) -> Result<()> {
+    check_dimension::<D>()?;
+    let mesh = space.mesh();
+    let (cell_type, order) = vtk_cell(D - 1, space.degree());
+    // Space-local facet order after reorientation: swap vertices 0 and 1 in 2D (the midpoint
+    // stays); swap vertices 1 and 2 in 3D, which maps the edges (0,1), (1,2), (0,2) to
+    // (0,2), (2,1), (0,1).
+    let flipped: Vec<usize> = match (D, space.degree()) {
+        (2, 1) => vec![1, 0],
+        (2, _) => vec![1, 0, 2],
+        (_, 1) => vec![0, 2, 1],
+        _ => vec![0, 2, 1, 5, 4, 3],
+    };
+    let mut local_of = vec![usize::MAX; space.num_nodes()];
+    let mut selected = Vec::new();
+    let mut connectivity = Vec::new();
+    for f in (0..mesh.num_facets()).filter(|&f| mesh.facet_part(f) == part) {
+        let nodes = space.facet_nodes(f);
+        let normal = mesh.facet_normal(f);
+        let local_order: Vec<usize> = if facet_orientation_dot::<D>(space, nodes, &normal) < 0.0 {
+            flipped.clone()
+        } else {
+            (0..nodes.len()).collect()
+        };
+        for &k in &order {
+            let node = nodes[local_order[k]];
+            if local_of[node] == usize::MAX {
+                local_of[node] = selected.len();
+                selected.push(node);
+            }
+            connectivity.push(local_of[node]);
+        }
+    }
+    let point_arrays = point_arrays::<D>(points, space.num_nodes(), Some(&selected))?;
+    let grid = Grid {
+        points: selected
+            .iter()
+            .map(|&n| embed::<D>(&space.node(n)))
+            .collect(),
+        connectivity,
+        nodes_per_cell: order.len(),
+        cell_type,
+    };
+    write_atomically(path, |out| write_grid(out, &grid, &point_arrays, &[]))
+}
+
+/// Writes a PVD collection for ParaView: one `DataSet` per entry (time, file name relative to
+/// the PVD file), in the given order.
+///
+/// Errors: a non-finite time or times that do not increase strictly ([`Error::InvalidInput`]
+/// naming the entry); an empty or non-printable file name; an IO failure (naming the path).
+pub fn write_pvd(path: &Path, entries: &[(f64, String)]) -> Result<()> {
+    for (index, (time, file)) in entries.iter().enumerate() {
+        if !time.is_finite() {
+            return Err(Error::InvalidInput(format!(
+                "PVD entry {index} ({file}): time {time} is not finite"
+            )));
+        }
+        if index > 0 && *time <= entries[index - 1].0 {
+            return Err(Error::InvalidInput(format!(
+                "PVD entry {index} ({file}): time {time} does not increase after {}",
+                entries[index - 1].0
+            )));
+        }
+        check_name(file, &format!("PVD entry {index}: file name"))?;
+    }
+    write_atomically(path, |out| {
+        writeln!(out, "<?xml version=\"1.0\"?>")?;
+        writeln!(
+            out,
+            "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">"
+        )?;
+        writeln!(out, "  <Collection>")?;
+        for (time, file) in entries {
+            writeln!(
+                out,
+                "    <DataSet timestep=\"{time:e}\" group=\"\" part=\"0\" file=\"{}\"/>",
+                escape(file)
+            )?;
+        }
+        writeln!(out, "  </Collection>")?;
+        writeln!(out, "</VTKFile>")
+    })
+}
+
+/// An unstructured grid of one cell type, ready to be written.
+struct Grid {
+    points: Vec<[f64; 3]>,
+    connectivity: Vec<usize>,
+    nodes_per_cell: usize,
+    cell_type: u8,
+}
+
+/// A validated data array with its VTK component count and padded values.
+struct Array<'a> {
+    name: &'a str,
+    /// "Scalars", "Vectors" or "Tensors".
+    attribute: &'static str,
+    components: usize,
+    values: Vec<f64>,
+}
+
+fn check_dimension<const D: usize>() -> Result<()> {
+    if D == 2 || D == 3 {
+        Ok(())
+    } else {
+        Err(Error::InvalidInput(format!(
+            "VTK output is implemented in dimension 2 or 3, not {D}"
+        )))
+    }
+}
+
+/// A point of R^D as a point of R^3 (z = 0 in 2D).
+fn embed<const D: usize>(x: &[f64; D]) -> [f64; 3] {
+    std::array::from_fn(|k| if k < D { x[k] } else { 0.0 })
+}
+
+/// Signed measure of the facet's orientation against `normal`: 2D: (tangent turned clockwise)·ν;
+/// 3D: ((x1 − x0) × (x2 − x0))·ν.
+fn facet_orientation_dot<const D: usize>(
+    space: &LagrangeSpace<D>,
+    nodes: &[usize],
+    normal: &[f64; D],
+) -> f64 {
+    let x: Vec<[f64; 3]> = nodes[..D]
+        .iter()
+        .map(|&n| embed::<D>(&space.node(n)))
+        .collect();
+    let n = embed::<D>(normal);
+    let e1: [f64; 3] = std::array::from_fn(|k| x[1][k] - x[0][k]);
+    if D == 2 {
+        e1[1] * n[0] - e1[0] * n[1]
+    } else {
+        let e2: [f64; 3] = std::array::from_fn(|k| x[2][k] - x[0][k]);
+        let cross = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        cross[0] * n[0] + cross[1] * n[1] + cross[2] * n[2]
+    }
+}
+
+/// Array names must be non-empty and free of control characters (which XML cannot carry).
+fn check_name(name: &str, what: &str) -> Result<()> {
+    if name.is_empty() {
+        return Err(Error::InvalidInput(format!("{what} is empty")));
+    }
+    if name.chars().any(char::is_control) {
+        return Err(Error::InvalidInput(format!(
+            "{what} {name:?} contains a control character"
+        )));
+    }
+    Ok(())
+}
+
+/// Validates one field: name, length = `entities` × `components`, finite values.
+fn check_field(
+    kind: &str,
+    name: &str,
+    values: &[f64],
+    entities: usize,
+    entity: &str,
+    components: usize,
+) -> Result<()> {
+    check_name(name, &format!("{kind} data name"))?;
+    let expected = entities * components;
+    if values.len() != expected {
+        return Err(Error::InvalidInput(format!(
+            "{kind} data `{name}` has {} values, expected {entities} {entity}s × {components} \
+             components = {expected}",
+            values.len()
+        )));
+    }
+    if let Some(index) = values.iter().position(|v| !v.is_finite()) {
+        return Err(Error::NonFinite(format!(
+            "{kind} data `{name}`: value {} of {entity} {}, component {}",
+            values[index],
+            index / components,
+            index % components
+        )));
+    }
+    Ok(())
+}
+
+/// Rejects two arrays of the same name in one data section.
+fn check_unique(kind: &str, names: &[&str]) -> Result<()> {
+    for (i, name) in names.iter().enumerate() {
+        if names[..i].contains(name) {
+            return Err(Error::InvalidInput(format!(
+                "{kind} data `{name}` is given twice"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Validates point fields on `num_nodes` nodes and pads them to 1 or 3 components; with
+/// `selected`, keeps only those nodes (in that order).
+fn point_arrays<'a, const D: usize>(
+    points: &[PointData<'a>],
+    num_nodes: usize,
+    selected: Option<&[usize]>,
+) -> Result<Vec<Array<'a>>> {
+    let names: Vec<&str> = points
+        .iter()
+        .map(|p| match p {
+            PointData::Scalar { name, .. } | PointData::Vector { name, .. } => *name,
+        })
+        .collect();
+    check_unique("point", &names)?;
+    let all: Vec<usize>;
+    let nodes = match selected {
+        Some(nodes) => nodes,
+        None => {
+            all = (0..num_nodes).collect();
+            &all
+        }
+    };
+    points
+        .iter()
+        .map(|data| match *data {
+            PointData::Scalar { name, values } => {
+                check_field("point", name, values, num_nodes, "node", 1)?;
+                Ok(Array {
+                    name,
+                    attribute: "Scalars",
+                    components: 1,
+                    values: nodes.iter().map(|&n| values[n]).collect(),
+                })
+            }
+            PointData::Vector { name, values } => {
+                check_field("point", name, values, num_nodes, "node", D)?;
+                Ok(Array {
+                    name,
+                    attribute: "Vectors",
+                    components: 3,
+                    values: nodes
+                        .iter()
+                        .flat_map(|&n| {
+                            (0..3).map(move |k| if k < D { values[n * D + k] } else { 0.0 })
+                        })
+                        .collect(),
+                })
+            }
+        })
+        .collect()
+}
+
+/// Validates cell fields on `num_cells` cells; tensors are embedded in 3×3 (row-major).
+fn cell_arrays<'a, const D: usize>(
+    cells: &[CellData<'a>],
+    num_cells: usize,
+) -> Result<Vec<Array<'a>>> {
+    let names: Vec<&str> = cells
+        .iter()
+        .map(|c| match c {
+            CellData::Scalar { name, .. } | CellData::Tensor { name, .. } => *name,
+        })
+        .collect();
+    check_unique("cell", &names)?;
+    cells
+        .iter()
+        .map(|data| match *data {
+            CellData::Scalar { name, values } => {
+                check_field("cell", name, values, num_cells, "cell", 1)?;
+                Ok(Array {
+                    name,
+                    attribute: "Scalars",
+                    components: 1,
+                    values: values.to_vec(),
+                })
+            }
+            CellData::Tensor { name, values } => {
+                check_field("cell", name, values, num_cells, "cell", D * D)?;
+                Ok(Array {
+                    name,
+                    attribute: "Tensors",
+                    components: 9,
+                    values: (0..num_cells)
+                        .flat_map(|c| {
+                            (0..9).map(move |k| {
+                                let (i, j) = (k / 3, k % 3);
+                                if i < D && j < D {
+                                    values[c * D * D + i * D + j]
+                                } else {
+                                    0.0
+                                }
+                            })
+                        })
+                        .collect(),
+                })
+            }
+        })
+        .collect()
+}
+
+/// XML attribute escaping.
+fn escape(text: &str) -> String {
+    let mut escaped = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '&' => escaped.push_str("&amp;"),
+            '<' => escaped.push_str("&lt;"),
+            '>' => escaped.push_str("&gt;"),
+            '"' => escaped.push_str("&quot;"),
+            '\'' => escaped.push_str("&apos;"),
+            _ => escaped.push(c),
+        }
+    }
+    escaped
+}
+
+/// Writes a data section (`PointData` or `CellData`), naming the first array of each kind as
+/// the active one.
+fn write_data_section(out: &mut dyn Write, section: &str, arrays: &[Array]) -> io::Result<()> {
+    let mut active = String::new();
+    for attribute in ["Scalars", "Vectors", "Tensors"] {
+        if let Some(array) = arrays.iter().find(|a| a.attribute == attribute) {
+            active.push_str(&format!(" {attribute}=\"{}\"", escape(array.name)));
+        }
+    }
+    writeln!(out, "      <{section}{active}>")?;
+    for array in arrays {
+        writeln!(
+            out,
+            "        <DataArray type=\"Float64\" Name=\"{}\" NumberOfComponents=\"{}\" \
+             format=\"ascii\">",
+            escape(array.name),
+            array.components
+        )?;
+        write_numbers(out, &array.values, array.components)?;
+        writeln!(out, "        </DataArray>")?;
+    }
+    writeln!(out, "      </{section}>")
+}
+
+/// Writes floats (shortest round-trip representation), `per_line` per line.
+fn write_numbers(out: &mut dyn Write, values: &[f64], per_line: usize) -> io::Result<()> {
+    for line in values.chunks(per_line.max(1)) {
+        write!(out, "         ")?;
+        for value in line {
+            write!(out, " {value:e}")?;
+        }
+        writeln!(out)?;
+    }
+    Ok(())
+}
+
+fn write_grid(
+    out: &mut dyn Write,
+    grid: &Grid,
+    point_arrays: &[Array],
+    cell_arrays: &[Array],
+) -> io::Result<()> {
+    let num_cells = grid.connectivity.len() / grid.nodes_per_cell;
+    writeln!(out, "<?xml version=\"1.0\"?>")?;
+    writeln!(
+        out,
+        "<VTKFile type=\"UnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" \
+         header_type=\"UInt64\">"
+    )?;
+    writeln!(out, "  <UnstructuredGrid>")?;
+    writeln!(
+        out,
+        "    <Piece NumberOfPoints=\"{}\" NumberOfCells=\"{num_cells}\">",
+        grid.points.len()
+    )?;
+    write_data_section(out, "PointData", point_arrays)?;
+    write_data_section(out, "CellData", cell_arrays)?;
+    writeln!(out, "      <Points>")?;
+    writeln!(
+        out,
+        "        <DataArray type=\"Float64\" Name=\"Points\" NumberOfComponents=\"3\" \
+         format=\"ascii\">"
+    )?;
+    let coordinates: Vec<f64> = grid.points.iter().flatten().copied().collect();
+    write_numbers(out, &coordinates, 3)?;
+    writeln!(out, "        </DataArray>")?;
+    writeln!(out, "      </Points>")?;
+    writeln!(out, "      <Cells>")?;
+    writeln!(
+        out,
+        "        <DataArray type=\"Int64\" Name=\"connectivity\" format=\"ascii\">"
+    )?;
+    for cell in grid.connectivity.chunks(grid.nodes_per_cell) {
+        write!(out, "         ")?;
+        for node in cell {
+            write!(out, " {node}")?;
+        }
+        writeln!(out)?;
+    }
+    writeln!(out, "        </DataArray>")?;
+    writeln!(
+        out,
+        "        <DataArray type=\"Int64\" Name=\"offsets\" format=\"ascii\">"
+    )?;
+    for cell in 0..num_cells {
+        writeln!(out, "          {}", (cell + 1) * grid.nodes_per_cell)?;
+    }
+    writeln!(out, "        </DataArray>")?;
+    writeln!(
+        out,
+        "        <DataArray type=\"UInt8\" Name=\"types\" format=\"ascii\">"
+    )?;
+    for _ in 0..num_cells {
+        writeln!(out, "          {}", grid.cell_type)?;
+    }
+    writeln!(out, "        </DataArray>")?;
+    writeln!(out, "      </Cells>")?;
+    writeln!(out, "    </Piece>")?;
+    writeln!(out, "  </UnstructuredGrid>")?;
+    writeln!(out, "</VTKFile>")
+}
+
+/// Distinguishes temporary files of concurrent writes from one process.
+static TEMPORARY_COUNTER: AtomicUsize = AtomicUsize::new(0);
+
+/// Writes a file atomically: `.<name>.<pid>.<n>.tmp` in the same directory, flushed and synced,
+/// then renamed to `path`. On failure the temporary file is removed and the error names `path`.
+fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
+) -> Result<()> {
+    let file_name = path.file_name().ok_or_else(|| {
+        Error::InvalidInput(format!("cannot write {}: not a file path", path.display()))
+    })?;
+    let directory = match path.parent() {
+        Some(parent) if !parent.as_os_str().is_empty() => parent,
+        _ => Path::new("."),
+    };
+    let mut temporary_name = std::ffi::OsString::from(".");
+    temporary_name.push(file_name);
+    temporary_name.push(format!(
+        ".{}.{}.tmp",
+        std::process::id(),
+        TEMPORARY_COUNTER.fetch_add(1, Ordering::Relaxed)
+    ));
+    let temporary = directory.join(temporary_name);
+    let result = (|| {
+        let mut out = BufWriter::new(File::create(&temporary)?);
+        write(&mut out)?;
+        let file = out.into_inner().map_err(io::IntoInnerError::into_error)?;
+        file.sync_all()?;
+        fs::rename(&temporary, path)
+    })();
+    result.map_err(|error| {
+        let _ = fs::remove_file(&temporary);
+        Error::InvalidInput(format!("cannot write {}: {error}", path.display()))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::Mesh;
+    use std::path::PathBuf;
+    use std::sync::Arc;
+    use BoundaryPart::*;
+
+    /// A fresh scratch directory for one test.
+    fn scratch(name: &str) -> PathBuf {
+        let directory =
+            std::env::temp_dir().join(format!("contact-damage-vtk-{}-{name}", std::process::id()));
+        let _ = fs::remove_dir_all(&directory);
+        fs::create_dir_all(&directory).unwrap();
+        directory
+    }
+
+    /// The parsed parts of a written .vtu file.
+    struct Vtu {
+        points: usize,
+        cells: usize,
+        coordinates: Vec<[f64; 3]>,
+        connectivity: Vec<usize>,
+        offsets: Vec<usize>,
+        types: Vec<u8>,
+        text: String,
+    }
+
+    impl Vtu {
+        fn read(path: &Path) -> Vtu {
+            let text = fs::read_to_string(path).unwrap();
+            let document = roxmltree::Document::parse(&text).unwrap();
+            let root = document.root_element();
+            assert_eq!(root.attribute("type"), Some("UnstructuredGrid"));
+            let piece = root
+                .descendants()
+                .find(|n| n.has_tag_name("Piece"))
+                .unwrap();
+            let count = |attribute| piece.attribute(attribute).unwrap().parse().unwrap();
+            let coordinates = array(&document, "Points", "Points").1;
+            let integers = |name| -> Vec<usize> {
+                array_text(&document, "Cells", name)
+                    .split_whitespace()
+                    .map(|v| v.parse().unwrap())
+                    .collect()
+            };
+            Vtu {
+                points: count("NumberOfPoints"),
+                cells: count("NumberOfCells"),
+                coordinates: coordinates
+                    .chunks_exact(3)
+                    .map(|p| [p[0], p[1], p[2]])
+                    .collect(),
+                connectivity: integers("connectivity"),
+                offsets: integers("offsets"),
+                types: integers("types").into_iter().map(|t| t as u8).collect(),
+                text,
+            }
+        }
+
+        /// Components and values of a data array of a section.
+        fn field(&self, section: &str, name: &str) -> (usize, Vec<f64>) {
+            let document = roxmltree::Document::parse(&self.text).unwrap();
+            array(&document, section, name)
+        }
+
+        fn cell(&self, c: usize) -> &[usize] {
+            let start = if c == 0 { 0 } else { self.offsets[c - 1] };
+            &self.connectivity[start..self.offsets[c]]
+        }
+
+        fn active(&self, section: &str, attribute: &str) -> Option<String> {
+            let document = roxmltree::Document::parse(&self.text).unwrap();
+            let node = document.descendants().find(|n| n.has_tag_name(section))?;
+            node.attribute(attribute).map(String::from)
+        }
+    }
+
+    fn array_text(document: &roxmltree::Document, section: &str, name: &str) -> String {
+        let section = document
+            .descendants()
+            .find(|n| n.has_tag_name(section))
+            .unwrap();
+        let array = section
+            .children()
+            .find(|n| n.has_tag_name("DataArray") && n.attribute("Name") == Some(name))
+            .unwrap_or_else(|| panic!("no DataArray {name}"));
+        array.text().unwrap_or("").to_string()
+    }
+
+    fn array(document: &roxmltree::Document, section: &str, name: &str) -> (usize, Vec<f64>) {
+        let node = document
+            .descendants()
+            .find(|n| n.has_tag_name(section))
+            .unwrap()
+            .children()
+            .find(|n| n.has_tag_name("DataArray") && n.attribute("Name") == Some(name))
+            .unwrap();
+        let components = node
+            .attribute("NumberOfComponents")
+            .map_or(1, |c| c.parse().unwrap());
+        let values = array_text(document, section, name)
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect();
+        (components, values)
+    }
+
+    fn midpoint(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+        std::array::from_fn(|k| 0.5 * (a[k] + b[k]))
+    }
+
+    /// Every quadratic cell's edge node k lies at the midpoint of VTK's edge k.
+    fn assert_vtk_edge_order(vtu: &Vtu, edges: &[[usize; 2]]) {
+        for c in 0..vtu.cells {
+            let cell = vtu.cell(c);
+            let vertices = cell.len() - edges.len();
+            for (k, &[a, b]) in edges.iter().enumerate() {
+                let expected = midpoint(vtu.coordinates[cell[a]], vtu.coordinates[cell[b]]);
+                assert_eq!(
+                    vtu.coordinates[cell[vertices + k]],
+                    expected,
+                    "cell {c}, edge node {k}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn p2_triangles_are_written_with_vtk_node_order_and_fields_round_trip() {
+        let directory = scratch("p2-triangles");
+        let sides = [[Dirichlet, Neumann], [Contact, Neumann]];
+        let mesh = Mesh::<2>::box_mesh([0.0, 0.0], [2.0, 1.0], [2, 2], sides).unwrap();
+        let space = LagrangeSpace::new(Arc::new(mesh), 2).unwrap();
+        let damage = space.interpolate_scalar(|x| 0.1 + x[0] / 3.0 - x[1] * x[1]);
+        let displacement = space.interpolate_vector(|x| [x[0] * x[1], -x[0] / 7.0]);
+        let num_cells = space.mesh().num_cells();
+        let cell_scalar: Vec<f64> = (0..num_cells).map(|c| c as f64 * 0.1).collect();
+        let stress: Vec<f64> = (0..num_cells)
+            .flat_map(|c| [c as f64, 0.5, -(c as f64), 1.0 / 3.0])
+            .collect();
+        let path = directory.join("out.vtu");
+        write_vtu(
+            &path,
+            &space,
+            &[
+                PointData::Scalar {
+                    name: "damage",
+                    values: &damage,
+                },
+                PointData::Vector {
+                    name: "displacement",
+                    values: &displacement,
+                },
+            ],
+            &[
+                CellData::Scalar {
+                    name: "index",
+                    values: &cell_scalar,
+                },
+                CellData::Tensor {
+                    name: "stress",
+                    values: &stress,
+                },
+            ],
+        )
+        .unwrap();
+        let vtu = Vtu::read(&path);
+        assert_eq!((vtu.points, vtu.cells), (space.num_nodes(), 8));
+        assert_eq!(vtu.types, vec![VTK_QUADRATIC_TRIANGLE; 8]);
+        assert_eq!(vtu.offsets, (1..=8).map(|c| 6 * c).collect::<Vec<_>>());
+        assert_eq!(vtu.cell(3), space.cell_nodes(3));
+        assert_vtk_edge_order(&vtu, &[[0, 1], [1, 2], [2, 0]]);
+        for (node, point) in vtu.coordinates.iter().enumerate() {
+            assert_eq!(*point, embed::<2>(&space.node(node)));
+        }
+        assert_eq!(vtu.field("PointData", "damage"), (1, damage.clone()));
+        let (components, written) = vtu.field("PointData", "displacement");
+        assert_eq!(components, 3);
+        for node in 0..space.num_nodes() {
+            assert_eq!(
+                written[3 * node..3 * node + 3],
+                [displacement[2 * node], displacement[2 * node + 1], 0.0]
+            );
+        }
+        assert_eq!(vtu.field("CellData", "index"), (1, cell_scalar));
+        let (components, written) = vtu.field("CellData", "stress");
+        assert_eq!(components, 9);
+        assert_eq!(
+            written[27..36],
+            [3.0, 0.5, 0.0, -3.0, 1.0 / 3.0, 0.0, 0.0, 0.0, 0.0]
+        );
+        assert_eq!(
+            vtu.active("PointData", "Scalars").as_deref(),
+            Some("damage")
+        );
+        assert_eq!(
+            vtu.active("PointData", "Vectors").as_deref(),
+            Some("displacement")
+        );
+        assert_eq!(vtu.active("CellData", "Tensors").as_deref(), Some("stress"));
+        fs::remove_dir_all(directory).unwrap();
+    }
+
+    /// det[x1 − x0, x2 − x0, x3 − x0] of a tetrahedron.
+    fn orientation(x: &[[f64; 3]]) -> f64 {
+        let e: Vec<[f64; 3]> = (1..4)
+            .map(|i| std::array::from_fn(|k| x[i][k] - x[0][k]))
+            .collect();
+        e[0][0] * (e[1][1] * e[2][2] - e[1][2] * e[2][1])
+            - e[0][1] * (e[1][0] * e[2][2] - e[1][2] * e[2][0])
+            + e[0][2] * (e[1][0] * e[2][1] - e[1][1] * e[2][0])
+    }
+
+    fn brick() -> Arc<Mesh<3>> {
+        let sides = [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]];
+        Arc::new(Mesh::box_mesh([0.0; 3], [1.0, 1.0, 2.0], [1, 1, 2], sides).unwrap())
+    }
+
+    #[test]
+    fn p1_tetrahedra_are_written_positively_oriented() {
+        let directory = scratch("p1-tetrahedra");
+        let space = LagrangeSpace::new(brick(), 1).unwrap();
+        let velocity = space.interpolate_vector(|x| [x[2], -x[0], 0.25 * x[1]]);
+        let path = directory.join("tets.vtu");
+        write_vtu(
+            &path,
+            &space,
+            &[PointData::Vector {
+                name: "velocity",
+                values: &velocity,
+            }],
+            &[],
+        )
+        .unwrap();
+        let vtu = Vtu::read(&path);
+        assert_eq!((vtu.points, vtu.cells), (12, 12));
+        assert_eq!(vtu.types, vec![VTK_TETRA; 12]);
+        assert_eq!(vtu.cell(0), space.mesh().cell(0));
+        for c in 0..vtu.cells {
+            let x: Vec<[f64; 3]> = vtu.cell(c).iter().map(|&n| vtu.coordinates[n]).collect();
+            // VTK: the first three points, by the right-hand rule, face the fourth.
+            assert!(orientation(&x) > 0.0, "cell {c}");
+        }
+        assert_eq!(vtu.field("PointData", "velocity"), (3, velocity));
+        fs::remove_dir_all(directory).unwrap();
+    }
+
+    #[test]
+    fn p2_tetrahedra_follow_vtk_edge_order() {
+        let directory = scratch("p2-tetrahedra");
+        let space = LagrangeSpace::new(brick(), 2).unwrap();
+        let path = directory.join("tets2.vtu");
+        write_vtu(&path, &space, &[], &[]).unwrap();
+        let vtu = Vtu::read(&path);
+        assert_eq!((vtu.points, vtu.cells), (space.num_nodes(), 12));
+        assert_eq!(vtu.types, vec![VTK_QUADRATIC_TETRA; 12]);
+        assert_eq!(vtu.offsets[0], 10);
+        assert_vtk_edge_order(&vtu, &VTK_EDGES);
+        fs::remove_dir_all(directory).unwrap();
+    }
+
+    #[test]
+    fn vtk_order_is_the_space_order_for_the_current_edge_numbering() {
+        assert_eq!(vtk_cell(2, 2), (VTK_QUADRATIC_TRIANGLE, (0..6).collect()));
+        assert_eq!(vtk_cell(3, 2), (VTK_QUADRATIC_TETRA, (0..10).collect()));
+        assert_eq!(vtk_cell(1, 2), (VTK_QUADRATIC_EDGE, vec![0, 1, 2]));
+        assert_eq!(vtk_cell(3, 1), (VTK_TETRA, vec![0, 1, 2, 3]));
+    }
+
+    /// Unit normal of a written boundary cell (2D: tangent turned clockwise; 3D: right-hand
+    /// rule), from its first D points.
+    fn written_normal(x: &[[f64; 3]], dimension: usize) -> [f64; 3] {
+        let e1: [f64; 3] = std::array::from_fn(|k| x[1][k] - x[0][k]);
+        let n = if dimension == 2 {
+            [e1[1], -e1[0], 0.0]
+        } else {
+            let e2: [f64; 3] = std::array::from_fn(|k| x[2][k] - x[0][k]);
+            [
+                e1[1] * e2[2] - e1[2] * e2[1],
+                e1[2] * e2[0] - e1[0] * e2[2],
+                e1[0] * e2[1] - e1[1] * e2[0],
+            ]
+        };
+        let norm = n.iter().map(|v| v * v).sum::<f64>().sqrt();
+        n.map(|v| v / norm)
+    }
+
+    #[test]
+    fn boundary_dataset_holds_the_part_facets_outward_oriented() {
+        let directory = scratch("boundary");
+        // 2D P2: contact on x = 0 (ν = (−1, 0)) and y = 0 (ν = (0, −1)).
+        let sides = [[Contact, Neumann], [Contact, Dirichlet]];
+        let mesh = Mesh::<2>::box_mesh([0.0, 0.0], [1.0, 1.0], [3, 2], sides).unwrap();
+        let contact_facets = (0..mesh.num_facets())
+            .filter(|&f| mesh.facet_part(f) == Contact)
+            .count();
+        let space = LagrangeSpace::new(Arc::new(mesh), 2).unwrap();
+        let pressure = space.interpolate_scalar(|x| 1.0 + x[0] + 10.0 * x[1]);
+        let path = directory.join("contact.vtu");
+        write_boundary_vtu(
+            &path,
+            &space,
+            Contact,
+            &[PointData::Scalar {
+                name: "pressure",
+                values: &pressure,
+            }],
+        )
+        .unwrap();
+        let vtu = Vtu::read(&path);
+        assert_eq!(vtu.cells, contact_facets);
+        assert_eq!(vtu.cells, 5);
+        assert_eq!(vtu.points, space.boundary_nodes(Contact).len());
+        assert_eq!(vtu.types, vec![VTK_QUADRATIC_EDGE; 5]);
+        assert_vtk_edge_order(&vtu, &[[0, 1]]);
+        let (_, written) = vtu.field("PointData", "pressure");
+        for (point, x) in vtu.coordinates.iter().enumerate() {
+            assert_eq!(x[2], 0.0);
+            assert!((written[point] - (1.0 + x[0] + 10.0 * x[1])).abs() < 1e-14);
+        }
+        for c in 0..vtu.cells {
+            let x: Vec<[f64; 3]> = vtu.cell(c).iter().map(|&n| vtu.coordinates[n]).collect();
+            let expected = if x[0][0] == 0.0 && x[1][0] == 0.0 {
+                [-1.0, 0.0, 0.0]
+            } else {
+                [0.0, -1.0, 0.0]
+            };
+            assert_eq!(written_normal(&x, 2), expected, "facet {c}");
+        }
+
+        // 3D, P1 and P2: contact on z = 0 (ν = −e3) and x = 1 (ν = e1).
+        let sides = [[Dirichlet, Contact], [Neumann, Neumann], [Contact, Neumann]];
+        let mesh = Arc::new(Mesh::<3>::box_mesh([0.0; 3], [1.0; 3], [2, 1, 1], sides).unwrap());
+        for degree in [1, 2] {
+            let space = LagrangeSpace::new(mesh.clone(), degree).unwrap();
+            let path = directory.join(format!("contact3d-p{degree}.vtu"));
+            let velocity = space.interpolate_vector(|x| [x[0], x[1], x[2]]);
+            write_boundary_vtu(
+                &path,
+                &space,
+                Contact,
+                &[PointData::Vector {
+                    name: "velocity",
+                    values: &velocity,
+                }],
+            )
+            .unwrap();
+            let vtu = Vtu::read(&path);
+            // z = 0: 2 × 1 squares of 2 triangles; x = 1: one square.
+            assert_eq!(vtu.cells, 6);
+            let (cell_type, edges): (u8, &[[usize; 2]]) = if degree == 1 {
+                (VTK_TRIANGLE, &[])
+            } else {
+                (VTK_QUADRATIC_TRIANGLE, &VTK_EDGES[..3])
+            };
+            assert_eq!(vtu.types, vec![cell_type; 6]);
+            assert_vtk_edge_order(&vtu, edges);
+            let (components, written) = vtu.field("PointData", "velocity");
+            assert_eq!(components, 3);
+            for (point, x) in vtu.coordinates.iter().enumerate() {
+                assert_eq!(written[3 * point..3 * point + 3], *x);
+            }
+            for c in 0..vtu.cells {
+                let x: Vec<[f64; 3]> = vtu.cell(c).iter().map(|&n| vtu.coordinates[n]).collect();
+                let expected = if x[..3].iter().all(|p| p[2] == 0.0) {
+                    [0.0, 0.0, -1.0]
+                } else {
+                    [1.0, 0.0, 0.0]
+                };
+                assert_eq!(written_normal(&x, 3), expected, "degree {degree} facet {c}");
+            }
+        }
+        // A part without facets gives an empty dataset.
+        let space = LagrangeSpace::new(mesh, 1).unwrap();
+        let path = directory.join("none.vtu");
+        let mesh2d =
+            Mesh::<2>::box_mesh([0.0; 2], [1.0; 2], [1, 1], [[Dirichlet, Neumann]; 2]).unwrap();
+        let space2d = LagrangeSpace::new(Arc::new(mesh2d), 1).unwrap();
+        write_boundary_vtu(&path, &space2d, Contact, &[]).unwrap();
+        let vtu = Vtu::read(&path);
+        assert_eq!((vtu.points, vtu.cells), (0, 0));
+        drop(space);
+        fs::remove_dir_all(directory).unwrap();
+    }
+
+    #[test]
+    fn pvd_lists_the_entries_in_order() {
+        let directory = scratch("pvd");
+        let entries = vec![
+            (0.0, "run_0000.vtu".to_string()),
+            (0.1, "run_0001.vtu".to_string()),
+            (1.25e-3 + 0.1, "steps/a&b\"c.vtu".to_string()),
+        ];
+        let path = directory.join("run.pvd");
+        write_pvd(&path, &entries).unwrap();
+        let text = fs::read_to_string(&path).unwrap();
+        let document = roxmltree::Document::parse(&text).unwrap();
+        assert_eq!(
+            document.root_element().attribute("type"),
+            Some("Collection")
+        );
+        let written: Vec<(f64, String)> = document
+            .descendants()
+            .filter(|n| n.has_tag_name("DataSet"))
+            .map(|n| {
+                (
+                    n.attribute("timestep").unwrap().parse().unwrap(),
+                    n.attribute("file").unwrap().to_string(),
+                )
+            })
+            .collect();
+        assert_eq!(written, entries);
+
+        let backwards = vec![(1.0, "a.vtu".to_string()), (1.0, "b.vtu".to_string())];
+        let message = write_pvd(&directory.join("bad.pvd"), &backwards)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("entry 1 (b.vtu)") && message.contains("does not increase"),
+            "{message}"
+        );
+        let nan = vec![(f64::NAN, "a.vtu".to_string())];
+        assert!(write_pvd(&directory.join("bad.pvd"), &nan).is_err());
+        let unnamed = vec![(0.0, String::new())];
+        assert!(write_pvd(&directory.join("bad.pvd"), &unnamed).is_err());
+        assert!(!directory.join("bad.pvd").exists());
+        fs::remove_dir_all(directory).unwrap();
+    }
+
+    #[test]
+    fn invalid_fields_are_rejected_with_their_names() {
+        let directory = scratch("invalid");
+        let mesh =
+            Mesh::<2>::box_mesh([0.0; 2], [1.0; 2], [2, 2], [[Dirichlet, Neumann]; 2]).unwrap();
+        let space = LagrangeSpace::new(Arc::new(mesh), 1).unwrap();
+        let path = directory.join("bad.vtu");
+        let short = vec![0.0; 17];
+        let message = write_vtu(
+            &path,
+            &space,
+            &[PointData::Vector {
+                name: "displacement",
+                values: &short,
+            }],
+            &[],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            message.contains(
+                "point data `displacement` has 17 values, expected 9 nodes × 2 components = 18"
+            ),
+            "{message}"
+        );
+        let mut nan = vec![0.0; 8];
+        nan[5] = f64::NAN;
+        match write_vtu(
+            &path,
+            &space,
+            &[],
+            &[CellData::Scalar {
+                name: "beta",
+                values: &nan,
+            }],
+        ) {
+            Err(Error::NonFinite(message)) => {
+                assert!(
+                    message.contains("`beta`") && message.contains("cell 5"),
+                    "{message}"
+                )
+            }
+            other => panic!("expected a non-finite error, got {other:?}"),
+        }
+        let tensor = vec![0.0; 8 * 9];
+        let message = write_vtu(
+            &path,
+            &space,
+            &[],
+            &[CellData::Tensor {
+                name: "stress",
+                values: &tensor,
+            }],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            message.contains("`stress` has 72 values, expected 8 cells × 4 components"),
+            "{message}"
+        );
+        let values = vec![0.0; 9];
+        let twice = [
+            PointData::Scalar {
+                name: "u",
+                values: &values,
+            },
+            PointData::Scalar {
+                name: "u",
+                values: &values,
+            },
+        ];
+        let message = write_vtu(&path, &space, &twice, &[])
+            .unwrap_err()
+            .to_string();
+        assert!(message.contains("`u` is given twice"), "{message}");
+        let empty = [PointData::Scalar {
+            name: "",
+            values: &values,
+        }];
+        assert!(write_boundary_vtu(&path, &space, Dirichlet, &empty).is_err());
+        assert!(!path.exists());
+        fs::remove_dir_all(directory).unwrap();
+    }
+
+    #[test]
+    fn files_are_replaced_atomically_and_io_errors_name_the_path() {
+        let directory = scratch("atomic");
+        let mesh =
+            Mesh::<2>::box_mesh([0.0; 2], [1.0; 2], [1, 1], [[Dirichlet, Neumann]; 2]).unwrap();
+        let space = LagrangeSpace::new(Arc::new(mesh), 1).unwrap();
+        let path = directory.join("frame.vtu");
+        let first = vec![1.0; 4];
+        let second = vec![2.0; 4];
+        write_vtu(
+            &path,
+            &space,
+            &[PointData::Scalar {
+                name: "beta",
+                values: &first,
+            }],
+            &[],
+        )
+        .unwrap();
+        write_vtu(
+            &path,
+            &space,
+            &[PointData::Scalar {
+                name: "beta",
+                values: &second,
+            }],
+            &[],
+        )
+        .unwrap();
+        assert_eq!(Vtu::read(&path).field("PointData", "beta"), (1, second));
+        let names: Vec<_> = fs::read_dir(&directory)
+            .unwrap()
+            .map(|entry| entry.unwrap().file_name())
+            .collect();
+        assert_eq!(names, vec![std::ffi::OsString::from("frame.vtu")]);
+
+        let missing = directory.join("no/such/dir/frame.vtu");
+        match write_vtu(&missing, &space, &[], &[]) {
+            Err(Error::InvalidInput(message)) => {
+                assert!(
+                    message.starts_with(&format!("cannot write {}: ", missing.display())),
+                    "{message}"
+                )
+            }
+            other => panic!("expected an input error, got {other:?}"),
+        }
+        fs::remove_dir_all(directory).unwrap();
+    }
+}
