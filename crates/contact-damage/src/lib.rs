@@ -10,6 +10,7 @@
 //!
 //! Modules, one concept each: [`mesh`], [`quadrature`], [`element`], [`space`], [`assembly`],
 //! [`linalg`], [`laws`], [`contact`], [`friction`], [`velocity`], [`obstacle`], [`damage`],
+//! [`gmsh`] (mesh files), [`vtk`] (ParaView output),
 //! [`scheme`].
 //!
 //! ```

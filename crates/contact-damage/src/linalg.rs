@@ -4,34 +4,77 @@
 use crate::{Error, Result};
 use faer::prelude::*;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
-use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
+use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 use faer::{Mat, Side};
+use rayon::prelude::*;
 
 /// The sparsity pattern of an assembled matrix together with the order in which element values
 /// are summed into it. Entries whose row or column is negative are dropped (eliminated dofs).
+///
+/// Expensive analysis once, cheap reuse: [`SparsityPattern::from_pairs`] sorts the (row, column)
+/// pairs of all element entries once (in parallel); [`SparsityPattern::matrix`] then sums the
+/// element values into the compressed columns with a parallel gather, without sorting.
 #[derive(Debug, Clone)]
 pub struct SparsityPattern {
     size: usize,
     value_count: usize,
     symbolic: SymbolicSparseColMat<usize>,
-    argsort: Argsort<usize>,
+    /// sources[starts[k]..starts[k + 1]]: the element values summed into stored entry k.
+    starts: Vec<usize>,
+    sources: Vec<u32>,
 }
 
 impl SparsityPattern {
     /// Builds the pattern of a `size × size` matrix from (row, column) pairs, one per element value;
     /// pairs with a negative index are ignored when values are summed.
     pub fn from_pairs(size: usize, pairs: &[Pair<isize, isize>]) -> Result<Self> {
-        let (symbolic, argsort) =
-            SymbolicSparseColMat::<usize>::try_new_from_nonnegative_indices(size, size, pairs)
-                .map_err(|e| Error::LinearAlgebra {
-                    context: "sparsity pattern".into(),
-                    message: format!("{e:?}"),
-                })?;
+        if pairs.len() > u32::MAX as usize {
+            return Err(Error::InvalidInput(format!(
+                "{} element entries exceed the 2^32 supported by one pattern",
+                pairs.len()
+            )));
+        }
+        if let Some(bad) = pairs
+            .iter()
+            .find(|p| p.row >= size as isize || p.col >= size as isize)
+        {
+            return Err(Error::InvalidInput(format!(
+                "pattern entry ({}, {}) outside a {size} × {size} matrix",
+                bad.row, bad.col
+            )));
+        }
+        let mut keyed: Vec<(u64, u32)> = pairs
+            .par_iter()
+            .enumerate()
+            .filter(|(_, p)| p.row >= 0 && p.col >= 0)
+            .map(|(i, p)| (p.col as u64 * size as u64 + p.row as u64, i as u32))
+            .collect();
+        keyed.par_sort_unstable();
+        let mut col_ptr = vec![0usize; size + 1];
+        let mut row_idx = Vec::new();
+        let mut starts = Vec::new();
+        let mut previous = u64::MAX;
+        for (position, &(key, _)) in keyed.iter().enumerate() {
+            if key != previous {
+                let col = (key / size as u64) as usize;
+                row_idx.push((key % size as u64) as usize);
+                starts.push(position);
+                col_ptr[col + 1] += 1;
+                previous = key;
+            }
+        }
+        starts.push(keyed.len());
+        for col in 0..size {
+            col_ptr[col + 1] += col_ptr[col];
+        }
+        let symbolic =
+            SymbolicSparseColMat::<usize>::new_checked(size, size, col_ptr, None, row_idx);
         Ok(Self {
             size,
             value_count: pairs.len(),
             symbolic,
-            argsort,
+            starts,
+            sources: keyed.into_iter().map(|(_, i)| i).collect(),
         })
     }
 
@@ -47,7 +90,7 @@ impl SparsityPattern {
 
     /// Number of stored nonzeros.
     pub fn nnz(&self) -> usize {
-        self.symbolic.compute_nnz()
+        self.starts.len() - 1
     }
 
     /// Sums the element values (in the order of the pairs) into a sparse matrix.
@@ -59,12 +102,17 @@ impl SparsityPattern {
                 values.len()
             )));
         }
-        SparseColMat::new_from_argsort(self.symbolic.clone(), &self.argsort, values).map_err(|e| {
-            Error::LinearAlgebra {
-                context: "matrix from pattern".into(),
-                message: format!("{e:?}"),
-            }
-        })
+        let summed: Vec<f64> = self
+            .starts
+            .par_windows(2)
+            .map(|range| {
+                self.sources[range[0]..range[1]]
+                    .iter()
+                    .map(|&i| values[i as usize])
+                    .sum()
+            })
+            .collect();
+        Ok(SparseColMat::new(self.symbolic.clone(), summed))
     }
 }
 

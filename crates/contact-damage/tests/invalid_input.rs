@@ -21,7 +21,10 @@ fn simulation_rejects_initial_damage_outside_unit_interval() {
     let mut data = common::quiet_data::<2>();
     data.initial_damage = Arc::new(|x| 1.0 + x[0]);
     let message = message_of(common::problem(common::square(2), 1, data, 1.0, 4));
-    assert!(message.contains("initial_damage") && message.contains("[0, 1]"), "{message}");
+    assert!(
+        message.contains("initial_damage") && message.contains("[0, 1]"),
+        "{message}"
+    );
 }
 
 #[test]
@@ -29,7 +32,10 @@ fn simulation_rejects_initial_displacement_on_clamped_side() {
     let mut data = common::quiet_data::<2>();
     data.initial_displacement = Arc::new(|_| [0.1, 0.0]);
     let message = message_of(common::problem(common::square(2), 1, data, 1.0, 4));
-    assert!(message.contains("initial_displacement") && message.contains("Γ1"), "{message}");
+    assert!(
+        message.contains("initial_displacement") && message.contains("Γ1"),
+        "{message}"
+    );
 }
 
 #[test]
@@ -37,14 +43,29 @@ fn simulation_rejects_negative_gap() {
     let mut data = common::quiet_data::<2>();
     data.gap = Arc::new(|_| -0.1);
     let message = message_of(common::problem(common::square(2), 1, data, 1.0, 4));
-    assert!(message.contains("gap") && message.contains("≥ 0"), "{message}");
+    assert!(
+        message.contains("gap") && message.contains("≥ 0"),
+        "{message}"
+    );
 }
 
 #[test]
 fn simulation_rejects_nonpositive_final_time_and_zero_steps() {
-    let message = message_of(common::problem(common::square(2), 1, common::quiet_data::<2>(), 0.0, 4));
+    let message = message_of(common::problem(
+        common::square(2),
+        1,
+        common::quiet_data::<2>(),
+        0.0,
+        4,
+    ));
     assert!(message.contains("final_time"), "{message}");
-    let message = message_of(common::problem(common::square(2), 1, common::quiet_data::<2>(), 1.0, 0));
+    let message = message_of(common::problem(
+        common::square(2),
+        1,
+        common::quiet_data::<2>(),
+        1.0,
+        0,
+    ));
     assert!(message.contains("steps"), "{message}");
 }
 
@@ -58,14 +79,23 @@ fn simulation_rejects_nonpositive_damage_diffusion() {
 
 #[test]
 fn simulation_rejects_unsupported_degree() {
-    let message = message_of(common::problem(common::square(2), 3, common::quiet_data::<2>(), 1.0, 4));
+    let message = message_of(common::problem(
+        common::square(2),
+        3,
+        common::quiet_data::<2>(),
+        1.0,
+        4,
+    ));
     assert!(message.contains('3'), "{message}");
 }
 
 #[test]
 fn simulation_rejects_invalid_law_parameters() {
     let mut problem = common::problem(common::square(2), 1, common::quiet_data::<2>(), 1.0, 4);
-    problem.model.viscosity = Arc::new(LinearViscosity { shear: -1.0, bulk: 0.0 });
+    problem.model.viscosity = Arc::new(LinearViscosity {
+        shear: -1.0,
+        bulk: 0.0,
+    });
     let message = message_of(problem);
     assert!(message.contains("viscosity.shear"), "{message}");
 }
@@ -74,27 +104,61 @@ fn simulation_rejects_invalid_law_parameters() {
 fn velocity_step_rejects_bad_data() {
     let space = Arc::new(LagrangeSpace::new(Arc::new(common::square(2)), 1).unwrap());
     let contact = Arc::new(ContactNodes::new(&space).unwrap());
-    let mut operator =
-        VelocityOperator::new(space.clone(), Arc::new(LinearViscosity { shear: 1.0, bulk: 0.0 }), contact.clone()).unwrap();
+    let mut operator = VelocityOperator::new(
+        space.clone(),
+        Arc::new(LinearViscosity {
+            shear: 1.0,
+            bulk: 0.0,
+        }),
+        contact.clone(),
+    )
+    .unwrap();
     let n = space.num_nodes() * 2;
     let pressure = vec![0.0; contact.len()];
     let settings = VelocitySettings::default();
     // wrong length
     let short = vec![0.0; n - 1];
-    let data = VelocityData { load: &short, normal_pressure: &pressure, friction_bound: &pressure };
-    let message = operator.solve(&data, &vec![0.0; n], &settings).unwrap_err().to_string();
+    let data = VelocityData {
+        load: &short,
+        normal_pressure: &pressure,
+        friction_bound: &pressure,
+    };
+    let message = operator
+        .solve(&data, &vec![0.0; n], &settings)
+        .unwrap_err()
+        .to_string();
     assert!(message.contains("sizes"), "{message}");
     // NaN load
     let mut load = vec![0.0; n];
     load[3] = f64::NAN;
-    let data = VelocityData { load: &load, normal_pressure: &pressure, friction_bound: &pressure };
-    let message = operator.solve(&data, &vec![0.0; n], &settings).unwrap_err().to_string();
-    assert!(message.contains("non-finite") && message.contains("dof 3"), "{message}");
+    let data = VelocityData {
+        load: &load,
+        normal_pressure: &pressure,
+        friction_bound: &pressure,
+    };
+    let message = operator
+        .solve(&data, &vec![0.0; n], &settings)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("non-finite") && message.contains("dof 3"),
+        "{message}"
+    );
     // negative friction bound
     let load = vec![0.0; n];
     let mut bound = pressure.clone();
     bound[0] = -1.0;
-    let data = VelocityData { load: &load, normal_pressure: &pressure, friction_bound: &bound };
-    let message = operator.solve(&data, &vec![0.0; n], &settings).unwrap_err().to_string();
-    assert!(message.contains("friction bound") && message.contains("contact node"), "{message}");
+    let data = VelocityData {
+        load: &load,
+        normal_pressure: &pressure,
+        friction_bound: &bound,
+    };
+    let message = operator
+        .solve(&data, &vec![0.0; n], &settings)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("friction bound") && message.contains("contact node"),
+        "{message}"
+    );
 }

@@ -211,10 +211,11 @@ pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
     for study in &studies {
         print_study(study);
     }
-    let out = cli
-        .out
-        .clone()
-        .unwrap_or_else(|| PathBuf::from("reports").join(&name).join(format!("l{}", cli.order)));
+    let out = cli.out.clone().unwrap_or_else(|| {
+        PathBuf::from("reports")
+            .join(&name)
+            .join(format!("l{}", cli.order))
+    });
     let written = write_reports(&out, &name, &origin, dim, &studies)?;
     println!(
         "\ncase {name} ({origin}), d = {dim}, l = {}: {:.1} s",
