@@ -64,6 +64,7 @@ pub mod laws;
 pub mod linalg;
 pub mod mesh;
 pub mod obstacle;
+pub mod ordering;
 pub mod quadrature;
 pub mod scheme;
 pub mod space;

@@ -2,11 +2,16 @@
 //! Cholesky solver whose symbolic analysis is reused across numeric factorizations (faer).
 
 use crate::{Error, Result};
-use faer::prelude::*;
-use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltRegularization;
+use faer::perm::PermRef;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering,
+};
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
-use faer::{Mat, Side};
+use faer::{Conj, Mat, Side};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 /// The sparsity pattern of an assembled matrix together with the order in which element values
 /// are summed into it. Entries whose row or column is negative are dropped (eliminated dofs).
@@ -117,57 +122,126 @@ impl SparsityPattern {
 }
 
 /// Sparse Cholesky solver for symmetric positive definite matrices of one fixed pattern: the
-/// symbolic analysis (fill-reducing ordering, elimination tree) is done once in
-/// [`CholeskySolver::analyse`], numeric factorizations reuse it.
+/// symbolic analysis (fill-reducing ordering, elimination tree, supernodes) is done once in
+/// [`CholeskySolver::analyse`] or [`CholeskySolver::analyse_with_ordering`]; numeric
+/// factorizations reuse it.
 #[derive(Debug, Clone)]
 pub struct CholeskySolver {
     size: usize,
-    symbolic: SymbolicLlt<usize>,
-    factor: Option<Llt<usize, f64>>,
+    symbolic: Arc<SymbolicCholesky<usize>>,
+    factor: Option<Vec<f64>>,
     context: &'static str,
 }
 
 impl CholeskySolver {
-    /// Symbolic analysis of the pattern of `matrix` (lower triangle is read).
+    /// Symbolic analysis of the pattern of `matrix` with an approximate minimum degree ordering
+    /// (the lower triangle is read).
     pub fn analyse(matrix: &SparseColMat<usize, f64>, context: &'static str) -> Result<Self> {
-        let symbolic = SymbolicLlt::try_new(matrix.symbolic(), Side::Lower).map_err(|e| {
-            Error::LinearAlgebra {
-                context: context.into(),
-                message: format!("symbolic Cholesky analysis failed: {e:?}"),
+        Self::analyse_ordered(matrix, None, context)
+    }
+
+    /// Symbolic analysis with a given elimination order (`ordering[position] = unknown`), e.g. a
+    /// nested dissection from [`crate::ordering`].
+    pub fn analyse_with_ordering(
+        matrix: &SparseColMat<usize, f64>,
+        ordering: &[usize],
+        context: &'static str,
+    ) -> Result<Self> {
+        Self::analyse_ordered(matrix, Some(ordering), context)
+    }
+
+    fn analyse_ordered(
+        matrix: &SparseColMat<usize, f64>,
+        ordering: Option<&[usize]>,
+        context: &'static str,
+    ) -> Result<Self> {
+        let size = matrix.nrows();
+        let failure = |message: String| Error::LinearAlgebra {
+            context: context.into(),
+            message,
+        };
+        let symbolic = match ordering {
+            None => factorize_symbolic_cholesky(
+                matrix.symbolic(),
+                Side::Lower,
+                SymmetricOrdering::Amd,
+                Default::default(),
+            ),
+            Some(forward) => {
+                if forward.len() != size {
+                    return Err(failure(format!(
+                        "ordering has {} entries for {size} unknowns",
+                        forward.len()
+                    )));
+                }
+                let mut inverse = vec![usize::MAX; size];
+                for (position, &unknown) in forward.iter().enumerate() {
+                    if unknown >= size || inverse[unknown] != usize::MAX {
+                        return Err(failure(format!(
+                            "ordering is not a permutation (entry {unknown})"
+                        )));
+                    }
+                    inverse[unknown] = position;
+                }
+                let permutation = PermRef::new_checked(forward, &inverse, size);
+                factorize_symbolic_cholesky(
+                    matrix.symbolic(),
+                    Side::Lower,
+                    SymmetricOrdering::Custom(permutation),
+                    Default::default(),
+                )
             }
-        })?;
+        }
+        .map_err(|e| failure(format!("symbolic Cholesky analysis failed: {e:?}")))?;
         Ok(Self {
-            size: matrix.nrows(),
-            symbolic,
+            size,
+            symbolic: Arc::new(symbolic),
             factor: None,
             context,
         })
     }
 
+    /// Number of stored values of the factor L (a measure of fill).
+    pub fn factor_len(&self) -> usize {
+        self.symbolic.len_val()
+    }
+
     /// Numeric factorization of `matrix` (same pattern as analysed).
     pub fn factorize(&mut self, matrix: &SparseColMat<usize, f64>) -> Result<()> {
-        let factor =
-            Llt::try_new_with_symbolic(self.symbolic.clone(), matrix.as_ref(), Side::Lower)
-                .map_err(|e| Error::LinearAlgebra {
-                    context: self.context.into(),
-                    message: format!(
-                        "Cholesky factorization failed (matrix not positive definite?): {e:?}"
-                    ),
-                })?;
-        self.factor = Some(factor);
+        let par = faer::get_global_parallelism();
+        let mut values = self.factor.take().unwrap_or_default();
+        values.resize(self.symbolic.len_val(), 0.0);
+        let mut memory = MemBuffer::try_new(
+            self.symbolic
+                .factorize_numeric_llt_scratch::<f64>(par, Default::default()),
+        )
+        .map_err(|e| Error::LinearAlgebra {
+            context: self.context.into(),
+            message: format!("out of memory for the factorization workspace: {e:?}"),
+        })?;
+        self.symbolic
+            .factorize_numeric_llt(
+                &mut values,
+                matrix.as_ref(),
+                Side::Lower,
+                LltRegularization::default(),
+                par,
+                MemStack::new(&mut memory),
+                Default::default(),
+            )
+            .map_err(|e| Error::LinearAlgebra {
+                context: self.context.into(),
+                message: format!(
+                    "Cholesky factorization failed (matrix not positive definite?): {e:?}"
+                ),
+            })?;
+        self.factor = Some(values);
         Ok(())
     }
 
     /// True once a numeric factorization is available.
     pub fn is_factorized(&self) -> bool {
         self.factor.is_some()
-    }
-
-    fn factor(&self) -> Result<&Llt<usize, f64>> {
-        self.factor.as_ref().ok_or_else(|| Error::LinearAlgebra {
-            context: self.context.into(),
-            message: "solve requested before factorization".into(),
-        })
     }
 
     /// Solves A x = b.
@@ -181,13 +255,31 @@ impl CholeskySolver {
             )));
         }
         let mut x = Mat::<f64>::from_fn(self.size, 1, |i, _| rhs[i]);
-        self.factor()?.solve_in_place(x.as_mut());
+        self.solve_block(x.as_mut())?;
         Ok((0..self.size).map(|i| x[(i, 0)]).collect())
     }
 
     /// Solves A X = B in place for a block of right-hand sides.
     pub fn solve_block(&self, block: faer::MatMut<'_, f64>) -> Result<()> {
-        self.factor()?.solve_in_place(block);
+        let values = self.factor.as_ref().ok_or_else(|| Error::LinearAlgebra {
+            context: self.context.into(),
+            message: "solve requested before factorization".into(),
+        })?;
+        let par = faer::get_global_parallelism();
+        let mut memory = MemBuffer::try_new(
+            self.symbolic
+                .solve_in_place_scratch::<f64>(block.ncols(), par),
+        )
+        .map_err(|e| Error::LinearAlgebra {
+            context: self.context.into(),
+            message: format!("out of memory for the solve workspace: {e:?}"),
+        })?;
+        LltRef::new(&self.symbolic, values).solve_in_place_with_conj(
+            Conj::No,
+            block,
+            par,
+            MemStack::new(&mut memory),
+        );
         Ok(())
     }
 }

@@ -22,6 +22,7 @@ use crate::friction::{CondensedFriction, FrictionSettings};
 use crate::laws::Viscosity;
 use crate::linalg::{multiply, CholeskySolver, SparsityPattern};
 use crate::mesh::BoundaryPart;
+use crate::ordering::{nested_dissection, NodeGraph};
 use crate::quadrature::QuadratureRule;
 use crate::space::{LagrangeSpace, Tabulation};
 use crate::{Error, Result};
@@ -193,7 +194,28 @@ impl<const D: usize> VelocityOperator<D> {
             linearized_at: None,
         };
         operator.matrix = operator.assemble(None)?;
-        operator.solver = CholeskySolver::analyse(&operator.matrix, "velocity operator (5.1)")?;
+        // Fill-reducing ordering, chosen by measurement (3D P1 at N = 32: nested dissection gives
+        // 0.98e8 factor entries against 1.74e8 for AMD and factorizes 1.7× faster; in 2D AMD is
+        // slightly better): geometric nested dissection of the nodes in 3D, AMD in 2D.
+        operator.solver = if D == 3 {
+            let space = &operator.space;
+            let graph = NodeGraph::from_cells(
+                space.num_nodes(),
+                (0..space.mesh().num_cells()).map(|c| space.cell_nodes(c)),
+            );
+            let node_order = nested_dissection(space.nodes(), &graph, 64);
+            let ordering: Vec<usize> = node_order
+                .iter()
+                .flat_map(|&node| (0..D).map(move |i| node * D + i))
+                .collect();
+            CholeskySolver::analyse_with_ordering(
+                &operator.matrix,
+                &ordering,
+                "velocity operator (5.1)",
+            )?
+        } else {
+            CholeskySolver::analyse(&operator.matrix, "velocity operator (5.1)")?
+        };
         Ok(operator)
     }
 
