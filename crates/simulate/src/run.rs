@@ -517,33 +517,29 @@ pub fn run<const D: usize>(
     })
 }
 
-/// Keeps the header and the rows of steps ≤ `step` of `history.csv` (rewritten atomically).
+/// Keeps the header and the rows of steps 1, …, `step` of `history.csv` (rewritten
+/// atomically). Rows after them — steps done after the last saved step, possibly a line cut
+/// short by a crash — are dropped; a missing, reordered or malformed row among them is an error.
 fn truncate_history(path: &Path, step: usize) -> Result<(), VerifyError> {
     let text = std::fs::read_to_string(path).map_err(io_error("reading", path))?;
-    let mut kept = String::new();
-    for (index, line) in text.lines().enumerate() {
-        if index == 0 {
-            if line != HISTORY_HEADER {
-                return Err(VerifyError::InvalidInput(format!(
-                    "{}: unexpected header `{line}`",
-                    path.display()
-                )));
-            }
-        } else {
-            let row_step: usize = line
-                .split(',')
-                .next()
-                .and_then(|s| s.parse().ok())
-                .ok_or_else(|| {
-                    VerifyError::InvalidInput(format!(
-                        "{}:{}: expected a step number first, found `{line}`",
-                        path.display(),
-                        index + 1
-                    ))
-                })?;
-            if row_step > step {
-                break;
-            }
+    let mut lines = text.lines();
+    if lines.next() != Some(HISTORY_HEADER) {
+        return Err(VerifyError::InvalidInput(format!(
+            "{}: the first line is not the history header",
+            path.display()
+        )));
+    }
+    let columns = HISTORY_HEADER.split(',').count();
+    let mut kept = format!("{HISTORY_HEADER}\n");
+    for expected in 1..=step {
+        let line = lines.next().unwrap_or("");
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != columns || fields[0] != expected.to_string() {
+            return Err(VerifyError::InvalidInput(format!(
+                "{}:{}: expected the complete row of step {expected}, found `{line}`",
+                path.display(),
+                expected + 1
+            )));
         }
         kept.push_str(line);
         kept.push('\n');
@@ -565,4 +561,112 @@ fn remove_old_output(dir: &Path) -> Result<(), VerifyError> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use contact_damage::mesh::{BoundaryPart::*, Mesh};
+    use std::sync::Arc;
+
+    fn unit_square_space(degree: usize) -> LagrangeSpace<2> {
+        let mesh = Mesh::box_mesh(
+            [0.0, 0.0],
+            [1.0, 2.0],
+            [3, 4],
+            [[Dirichlet, Neumann], [Contact, Neumann]],
+        )
+        .unwrap();
+        LagrangeSpace::new(Arc::new(mesh), degree).unwrap()
+    }
+
+    #[test]
+    fn damage_integrals_are_exact_for_linear_fields() {
+        for degree in [1, 2] {
+            let space = unit_square_space(degree);
+            let tabulation =
+                Tabulation::cell_rule(space.element(), &QuadratureRule::<2>::simplex(2 * degree));
+            // β = 0.2 + 0.3 x + 0.1 y on (0, 1) × (0, 2): mean 0.2 + 0.15 + 0.1
+            let damage = space.interpolate_scalar(|x| 0.2 + 0.3 * x[0] + 0.1 * x[1]);
+            let (mean, weak) = damage_integrals(&space, &tabulation, &damage);
+            assert!((mean - 0.45).abs() < 1e-14, "{mean}");
+            assert!(weak > 0.0 && weak < 2.0, "{weak}");
+            let (_, all) = damage_integrals(&space, &tabulation, &vec![0.3; damage.len()]);
+            let (_, none) = damage_integrals(&space, &tabulation, &vec![0.7; damage.len()]);
+            assert!((all - 2.0).abs() < 1e-14 && none == 0.0);
+        }
+    }
+
+    #[test]
+    fn cell_stress_is_viscous_plus_damaged_elastic_stress() {
+        let text = r#"
+            dim = 2
+            degree = 1
+            final_time = 1.0
+            steps = 1
+            [mesh]
+            box = { lower = [0.0, 0.0], upper = [1.0, 2.0], cells = [3, 4], sides = { x_min = "clamped", y_min = "contact" } }
+            [laws]
+            viscosity = { kind = "linear", shear = 0.5, bulk = 0.25 }
+            elasticity = { kind = "damaged_hooke", shear_modulus = 2.0, lame_lambda = 3.0 }
+            damage_source = { kind = "fremond", lambda_d = 0.1, lambda_w = 0.05, damage_floor = 0.1, strain_energy_cap = 10.0 }
+            contact = { stiffness = 10.0, friction = 0.4 }
+            damage_diffusion = 0.1
+        "#;
+        let file = verify::case::parse_toml(text, "inline").unwrap();
+        let setup = ProblemSetup::<2>::new(file, Path::new("inline.toml")).unwrap();
+        let space = unit_square_space(2);
+        // affine fields: ε(u) = [[0.1, 0.05], [0.05, -0.2]], ε(v) = [[0, 0.5], [0.5, 0.3]]
+        let state = State {
+            step: 0,
+            time: 0.0,
+            displacement: space.interpolate_vector(|x| [0.1 * x[0] + 0.1 * x[1], -0.2 * x[1]]),
+            velocity: space.interpolate_vector(|x| [x[1], 0.3 * x[1]]),
+            damage: vec![0.6; space.num_nodes()],
+        };
+        let stress = cell_stress(&setup, &space, &state);
+        let strain = Tensor::<2>::new(0.1, 0.05, 0.05, -0.2);
+        let rate = Tensor::<2>::new(0.0, 0.5, 0.5, 0.3);
+        let identity = Tensor::<2>::identity();
+        let expected = (rate * 2.0 * 0.5 + identity * 0.25 * rate.trace())
+            + (strain * 2.0 * 2.0 + identity * 3.0 * strain.trace()) * 0.6;
+        assert_eq!(stress.len(), space.mesh().num_cells() * 4);
+        for sigma in stress.chunks(4) {
+            for i in 0..2 {
+                for j in 0..2 {
+                    assert!((sigma[i * 2 + j] - expected[(i, j)]).abs() < 1e-13);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn history_is_truncated_to_the_saved_step() {
+        let dir = std::env::temp_dir().join(format!("simulate-history-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(HISTORY_FILE);
+        let row = |n: usize| format!("{n},0.1,0,0,0,1,1,0,0e0,0e0,1,1,1\n");
+        // rows 1..3 complete, then a row cut short by a crash
+        let text = format!("{HISTORY_HEADER}\n{}{}{}4,0.4,0", row(1), row(2), row(3));
+        std::fs::write(&path, &text).unwrap();
+        truncate_history(&path, 3).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            format!("{HISTORY_HEADER}\n{}{}{}", row(1), row(2), row(3))
+        );
+        truncate_history(&path, 1).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            format!("{HISTORY_HEADER}\n{}", row(1))
+        );
+        // a missing row is an error naming the line
+        let error = truncate_history(&path, 2).unwrap_err().to_string();
+        assert!(
+            error.contains(":3: expected the complete row of step 2"),
+            "{error}"
+        );
+        std::fs::write(&path, "step,t\n").unwrap();
+        assert!(truncate_history(&path, 0).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }
