@@ -4,6 +4,7 @@ use clap::Parser;
 use simulate::run::RunOptions;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use verify::VerifyError;
 
 /// Runs Problem P (contact, friction, damage) from a TOML problem file and writes VTU/PVD
 /// files, history.csv and state.json.
@@ -50,6 +51,10 @@ fn main() -> ExitCode {
                 outcome.output_dir.display()
             );
             ExitCode::SUCCESS
+        }
+        Err(VerifyError::Case { file, key, message }) => {
+            eprintln!("simulate: problem file `{file}`, key `{key}`: {message}");
+            ExitCode::FAILURE
         }
         Err(error) => {
             eprintln!("simulate: {error}");

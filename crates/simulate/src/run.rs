@@ -222,11 +222,8 @@ fn io_error(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) ->
 pub fn read_saved_state(dir: &Path) -> Result<SavedState, VerifyError> {
     let path = dir.join(STATE_FILE);
     let text = std::fs::read_to_string(&path).map_err(io_error("reading saved state", &path))?;
-    serde_json::from_str(&text).map_err(|e| VerifyError::Case {
-        file: path.display().to_string(),
-        key: format!("line {}, column {}", e.line(), e.column()),
-        message: e.to_string(),
-    })
+    serde_json::from_str(&text)
+        .map_err(|e| VerifyError::InvalidInput(format!("{}: {e}", path.display())))
 }
 
 /// Runs the problem of `setup` with `options`; see the module documentation for the files.
