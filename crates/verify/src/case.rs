@@ -186,157 +186,59 @@ pub struct TimeStudy {
     pub reference_steps: usize,
 }
 
-/// A validated case in dimension D.
-#[derive(Clone)]
-pub struct Case<const D: usize> {
-    /// The file as read.
-    pub file: CaseFile,
-    /// Where it came from (a path or `built-in:NAME`).
-    pub origin: String,
-    /// Box sides.
-    pub sides: [[BoundaryPart; 2]; D],
-    /// Laws (shared with the solver).
-    pub laws: Laws<D>,
-    /// Exact fields.
-    pub exact: ExactSolution<D>,
-}
-
-/// A damage source given by an expression in β, tr ε and ε:ε.
-pub struct ExpressionDamageSource {
-    expr: Expr,
-}
-
-impl<const D: usize> DamageSource<D> for ExpressionDamageSource {
-    fn source(&self, strain: &Tensor<D>, damage: f64) -> f64 {
-        self.expr
-            .eval_f64(&[damage, strain.trace(), strain.norm_squared()])
-    }
-    fn validate(&self) -> contact_damage::Result<()> {
-        for beta in [0.0, 0.5, 1.0] {
-            let v = self.expr.eval_f64(&[beta, 0.0, 0.0]);
-            if !v.is_finite() {
-                return Err(contact_damage::Error::parameter(
-                    "laws.damage_source.expr at ε = 0",
-                    beta,
-                    "the damage source expression is not finite",
-                ));
-            }
-        }
-        Ok(())
-    }
-}
-
-fn case_error(origin: &str, key: &str, message: impl Into<String>) -> VerifyError {
-    VerifyError::Case {
-        file: origin.to_string(),
-        key: key.to_string(),
-        message: message.into(),
-    }
-}
-
-/// Reads and parses a case file (TOML syntax errors carry line and column).
-pub fn read_case_file(path: &Path) -> Result<CaseFile, VerifyError> {
-    let text =
-        std::fs::read_to_string(path).map_err(|e| VerifyError::io("reading case file", path, e))?;
-    parse_case_file(&text, &path.display().to_string())
-}
-
-/// Parses case-file text; `origin` names it in errors.
-pub fn parse_case_file(text: &str, origin: &str) -> Result<CaseFile, VerifyError> {
-    toml::from_str::<CaseFile>(text).map_err(|e| {
-        let (line, column) = e
-            .span()
-            .map(|span| {
-                let before = &text[..span.start.min(text.len())];
-                let line = before.matches('\n').count() + 1;
-                let column = before.len() - before.rfind('\n').map_or(0, |p| p + 1) + 1;
-                (line, column)
-            })
-            .unwrap_or((0, 0));
-        case_error(
-            origin,
-            &format!("line {line}, column {column}"),
-            e.message().to_string(),
-        )
-    })
-}
-
-fn parse_expr(
+/// Parses box sides (`x_min`, `x_max`, `y_min`, `y_max`, `z_min`, `z_max` → `clamped` (Γ1),
+/// `traction` (Γ2) or `contact` (Γ3)); sides not listed are traction sides. Errors name
+/// `origin` and the key `key_prefix.SIDE`.
+pub fn parse_sides<const D: usize>(
     origin: &str,
-    key: &str,
-    source: &str,
-    variables: &[&str],
-    constants: &BTreeMap<String, f64>,
-) -> Result<Expr, VerifyError> {
-    Expr::parse(source, variables, constants)
-        .map_err(|e| case_error(origin, key, format!("`{source}`: {e}")))
-}
-
-fn positive(origin: &str, key: &str, value: f64) -> Result<(), VerifyError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(case_error(
-            origin,
-            key,
-            format!("must be a positive number, got {value}"),
-        ))
-    }
-}
-
-impl<const D: usize> Case<D> {
-    /// Validates the case file and builds the laws and exact fields. Checks, at sampled points,
-    /// that u = 0 on Γ1, β ∈ [0, 1], |ξ_τ| < 1 on Γ3, η ∈ ∂ψ_K(β) and g ≥ 0 on Γ3.
-    pub fn new(file: CaseFile, origin: &str) -> Result<Self, VerifyError> {
-        if file.dim != D {
+    key_prefix: &str,
+    sides_file: &BTreeMap<String, String>,
+) -> Result<[[BoundaryPart; 2]; D], VerifyError> {
+    let axes = ["x", "y", "z"];
+    let mut sides = [[BoundaryPart::Neumann; 2]; D];
+    for (key, part) in sides_file {
+        let (axis, end) = match key.split_once('_') {
+            Some((a, e)) => (axes.iter().position(|n| *n == a), e),
+            None => (None, ""),
+        };
+        let side = match end {
+            "min" => Some(0),
+            "max" => Some(1),
+            _ => None,
+        };
+        let (Some(axis), Some(side)) = (axis.filter(|&a| a < D), side) else {
             return Err(case_error(
                 origin,
-                "dim",
-                format!("expected {D}, got {}", file.dim),
+                &format!("{key_prefix}.{key}"),
+                "unknown side (use x_min, x_max, y_min, y_max[, z_min, z_max])",
             ));
-        }
-        positive(origin, "final_time", file.final_time)?;
-        if file.domain.lower.len() != D || file.domain.upper.len() != D {
-            return Err(case_error(
-                origin,
-                "domain.lower/upper",
-                format!("need {D} coordinates each"),
-            ));
-        }
-        let axes = ["x", "y", "z"];
-        let mut sides = [[BoundaryPart::Neumann; 2]; D];
-        for (key, part) in &file.domain.sides {
-            let (axis, end) = match key.split_once('_') {
-                Some((a, e)) => (axes.iter().position(|n| *n == a), e),
-                None => (None, ""),
-            };
-            let side = match end {
-                "min" => Some(0),
-                "max" => Some(1),
-                _ => None,
-            };
-            let (Some(axis), Some(side)) = (axis.filter(|&a| a < D), side) else {
+        };
+        sides[axis][side] = match part.as_str() {
+            "clamped" => BoundaryPart::Dirichlet,
+            "traction" => BoundaryPart::Neumann,
+            "contact" => BoundaryPart::Contact,
+            other => {
                 return Err(case_error(
                     origin,
-                    &format!("domain.sides.{key}"),
-                    "unknown side (use x_min, x_max, y_min, y_max[, z_min, z_max])",
-                ));
-            };
-            sides[axis][side] = match part.as_str() {
-                "clamped" => BoundaryPart::Dirichlet,
-                "traction" => BoundaryPart::Neumann,
-                "contact" => BoundaryPart::Contact,
-                other => {
-                    return Err(case_error(
-                        origin,
-                        &format!("domain.sides.{key}"),
-                        format!("unknown part `{other}` (use clamped, traction or contact)"),
-                    ))
-                }
-            };
-        }
-        let constants = &file.constants;
-        let laws_file = &file.laws;
+                    &format!("{key_prefix}.{key}"),
+                    format!("unknown part `{other}` (use clamped, traction or contact)"),
+                ))
+            }
+        };
+    }
+    Ok(sides)
+}
+
+impl LawsFile {
+    /// Builds and validates the laws in dimension D: a damage-source expression is parsed with
+    /// the variables [`SOURCE_VARIABLES`] and the given `constants`; every law is validated
+    /// and κ must be positive. Errors name `origin` and the key under `laws`.
+    pub fn build<const D: usize>(
+        &self,
+        origin: &str,
+        constants: &BTreeMap<String, f64>,
+    ) -> Result<Laws<D>, VerifyError> {
+        let laws_file = self;
         let viscosity: Arc<dyn Viscosity<D>> = match laws_file.viscosity {
             ViscosityFile::Linear { shear, bulk } => Arc::new(LinearViscosity { shear, bulk }),
             ViscosityFile::Saturating {
@@ -399,6 +301,139 @@ impl<const D: usize> Case<D> {
         laws.damage_source.validate().map_err(law_error)?;
         laws.contact.validate().map_err(law_error)?;
         positive(origin, "laws.damage_diffusion", laws.damage_diffusion)?;
+        Ok(laws)
+    }
+}
+
+/// A validated case in dimension D.
+#[derive(Clone)]
+pub struct Case<const D: usize> {
+    /// The file as read.
+    pub file: CaseFile,
+    /// Where it came from (a path or `built-in:NAME`).
+    pub origin: String,
+    /// Box sides.
+    pub sides: [[BoundaryPart; 2]; D],
+    /// Laws (shared with the solver).
+    pub laws: Laws<D>,
+    /// Exact fields.
+    pub exact: ExactSolution<D>,
+}
+
+/// A damage source given by an expression in β, tr ε and ε:ε.
+pub struct ExpressionDamageSource {
+    expr: Expr,
+}
+
+impl<const D: usize> DamageSource<D> for ExpressionDamageSource {
+    fn source(&self, strain: &Tensor<D>, damage: f64) -> f64 {
+        self.expr
+            .eval_f64(&[damage, strain.trace(), strain.norm_squared()])
+    }
+    fn validate(&self) -> contact_damage::Result<()> {
+        for beta in [0.0, 0.5, 1.0] {
+            let v = self.expr.eval_f64(&[beta, 0.0, 0.0]);
+            if !v.is_finite() {
+                return Err(contact_damage::Error::parameter(
+                    "laws.damage_source.expr at ε = 0",
+                    beta,
+                    "the damage source expression is not finite",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
+
+fn case_error(origin: &str, key: &str, message: impl Into<String>) -> VerifyError {
+    VerifyError::Case {
+        file: origin.to_string(),
+        key: key.to_string(),
+        message: message.into(),
+    }
+}
+
+/// Reads and parses a case file (TOML syntax errors carry line and column).
+pub fn read_case_file(path: &Path) -> Result<CaseFile, VerifyError> {
+    let text =
+        std::fs::read_to_string(path).map_err(|e| VerifyError::io("reading case file", path, e))?;
+    parse_case_file(&text, &path.display().to_string())
+}
+
+/// Parses case-file text; `origin` names it in errors.
+pub fn parse_case_file(text: &str, origin: &str) -> Result<CaseFile, VerifyError> {
+    parse_toml(text, origin)
+}
+
+/// Parses TOML text into `T`; a syntax error or a missing, unknown or mistyped key is a
+/// [`VerifyError::Case`] naming `origin`, the line and column, and the problem.
+pub fn parse_toml<T: serde::de::DeserializeOwned>(
+    text: &str,
+    origin: &str,
+) -> Result<T, VerifyError> {
+    toml::from_str::<T>(text).map_err(|e| {
+        let (line, column) = e
+            .span()
+            .map(|span| {
+                let before = &text[..span.start.min(text.len())];
+                let line = before.matches('\n').count() + 1;
+                let column = before.len() - before.rfind('\n').map_or(0, |p| p + 1) + 1;
+                (line, column)
+            })
+            .unwrap_or((0, 0));
+        case_error(
+            origin,
+            &format!("line {line}, column {column}"),
+            e.message().to_string(),
+        )
+    })
+}
+
+fn parse_expr(
+    origin: &str,
+    key: &str,
+    source: &str,
+    variables: &[&str],
+    constants: &BTreeMap<String, f64>,
+) -> Result<Expr, VerifyError> {
+    Expr::parse(source, variables, constants)
+        .map_err(|e| case_error(origin, key, format!("`{source}`: {e}")))
+}
+
+fn positive(origin: &str, key: &str, value: f64) -> Result<(), VerifyError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        Err(case_error(
+            origin,
+            key,
+            format!("must be a positive number, got {value}"),
+        ))
+    }
+}
+
+impl<const D: usize> Case<D> {
+    /// Validates the case file and builds the laws and exact fields. Checks, at sampled points,
+    /// that u = 0 on Γ1, β ∈ [0, 1], |ξ_τ| < 1 on Γ3, η ∈ ∂ψ_K(β) and g ≥ 0 on Γ3.
+    pub fn new(file: CaseFile, origin: &str) -> Result<Self, VerifyError> {
+        if file.dim != D {
+            return Err(case_error(
+                origin,
+                "dim",
+                format!("expected {D}, got {}", file.dim),
+            ));
+        }
+        positive(origin, "final_time", file.final_time)?;
+        if file.domain.lower.len() != D || file.domain.upper.len() != D {
+            return Err(case_error(
+                origin,
+                "domain.lower/upper",
+                format!("need {D} coordinates each"),
+            ));
+        }
+        let sides = parse_sides::<D>(origin, "domain.sides", &file.domain.sides)?;
+        let constants = &file.constants;
+        let laws = file.laws.build::<D>(origin, constants)?;
 
         let exact_file = &file.exact;
         if exact_file.u.len() != D {

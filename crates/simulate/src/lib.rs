@@ -1,0 +1,26 @@
+//! `simulate`: runs Problem P of Han, Shillor & Sofonea (2001) — viscoelastic body, normal
+//! compliance with Coulomb friction, damage — from a TOML problem file, with ParaView output
+//! (VTU per saved step, PVD time series), a CSV time history and restarts.
+//!
+//! - [`problem`]: the problem file and its translation into the solver's problem;
+//! - [`run`]: the time loop, the output files and `--resume`.
+
+pub mod problem;
+pub mod run;
+
+use std::path::Path;
+use verify::VerifyError;
+
+/// Reads the problem file at `path`, builds it in its dimension and runs it.
+pub fn run_file(path: &Path, options: &run::RunOptions) -> Result<run::RunOutcome, VerifyError> {
+    let file = problem::read_problem_file(path)?;
+    match file.dim {
+        2 => run::run(&problem::ProblemSetup::<2>::new(file, path)?, options),
+        3 => run::run(&problem::ProblemSetup::<3>::new(file, path)?, options),
+        other => Err(VerifyError::Case {
+            file: path.display().to_string(),
+            key: "dim".into(),
+            message: format!("must be 2 or 3, got {other}"),
+        }),
+    }
+}

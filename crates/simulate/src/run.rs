@@ -1,0 +1,669 @@
+//! Running a problem: the time loop of the scheme (5.1)–(5.5) with output after each step.
+//!
+//! Files in the output folder:
+//! - `solution_NNNNNN.vtu` per saved step: point fields `displacement` u_n, `velocity` v_n,
+//!   `damage` β_n; cell field `stress` σ = 𝒜ε(v_n) + G(ε(u_n), β_n) (2.1) at the cell centroid;
+//! - `contact_NNNNNN.vtu` per saved step, on Γ3: `status` (0 separated, 1 stick, 2 slip; nodes
+//!   of Γ3 that are no contact node — clamped or of zero weight — get 0), `contact_node`
+//!   (1 on contact nodes), `normal_pressure` p_ν(u_{n−1,ν} − g) and `tangential_traction`
+//!   −p_τ λ (Cartesian) as used in step n;
+//! - `solution.pvd`, `contact.pvd`: the time series (rewritten atomically at each saved step);
+//! - `history.csv`: one row per step, appended and flushed after each step;
+//! - `state.json`: the state of the last saved step (written atomically, last), for `--resume`.
+//!
+//! A crash or Ctrl-C therefore leaves every completed saved step on disk; resuming truncates
+//! `history.csv` to the resumed step and continues bitwise as the uninterrupted run would.
+
+use crate::problem::ProblemSetup;
+use contact_damage::contact::ContactStatus;
+use contact_damage::laws::Tensor;
+use contact_damage::mesh::BoundaryPart;
+use contact_damage::quadrature::QuadratureRule;
+use contact_damage::scheme::{Simulation, State};
+use contact_damage::space::{strain, LagrangeSpace, Tabulation};
+use contact_damage::vtk::{write_boundary_vtu, write_pvd, write_vtu, CellData, PointData};
+use serde::{Deserialize, Serialize};
+use std::fs::OpenOptions;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use verify::output::{write_atomic, write_json_atomic};
+use verify::VerifyError;
+
+/// Name of the restart file.
+pub const STATE_FILE: &str = "state.json";
+/// Name of the time history.
+pub const HISTORY_FILE: &str = "history.csv";
+/// Header of the time history.
+pub const HISTORY_HEADER: &str = "step,t,normal_force,stick,slip,separated,mean_damage,area_damage_below_half,velocity_kkt,damage_kkt,newton_iterations,friction_iterations,damage_iterations";
+
+/// Command-line options of a run.
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Output folder (overrides `output.dir`).
+    pub out: Option<PathBuf>,
+    /// Continue from `state.json` in the output folder.
+    pub resume: bool,
+    /// Start afresh even if the output folder holds a run.
+    pub overwrite: bool,
+    /// Stop after this step (it is saved), as if interrupted; `--resume` continues.
+    pub until_step: Option<usize>,
+    /// No progress lines.
+    pub quiet: bool,
+}
+
+/// What a run did.
+#[derive(Debug, Clone)]
+pub struct RunOutcome {
+    /// The output folder.
+    pub output_dir: PathBuf,
+    /// First step computed by this run minus one (0, or the resumed step).
+    pub started_from: usize,
+    /// Last step done.
+    pub last_step: usize,
+    /// Steps saved so far (over all runs in this folder).
+    pub saved_steps: Vec<usize>,
+    /// Largest velocity and damage KKT residuals of the steps done by this run.
+    pub max_kkt: [f64; 2],
+    /// Wall time of the time loop in seconds.
+    pub seconds: f64,
+}
+
+/// The restart file: the state after a saved step and what it belongs to.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SavedState {
+    /// Problem name.
+    pub name: String,
+    /// d.
+    pub dim: usize,
+    /// l.
+    pub degree: usize,
+    /// N.
+    pub steps: usize,
+    /// T.
+    pub final_time: f64,
+    /// Number of space nodes.
+    pub nodes: usize,
+    /// Steps saved so far (the PVD entries).
+    pub saved_steps: Vec<usize>,
+    /// n.
+    pub step: usize,
+    /// t_n.
+    pub time: f64,
+    /// u_n, node-major.
+    pub displacement: Vec<f64>,
+    /// v_n, node-major.
+    pub velocity: Vec<f64>,
+    /// β_n.
+    pub damage: Vec<f64>,
+}
+
+/// Integral quantities of one step (a row of `history.csv`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HistoryRow {
+    /// n.
+    pub step: usize,
+    /// t_n.
+    pub time: f64,
+    /// Σ_a ω_a p_ν(a): total normal contact force.
+    pub normal_force: f64,
+    /// Contact nodes sticking.
+    pub stick: usize,
+    /// Contact nodes slipping.
+    pub slip: usize,
+    /// Contact nodes separated.
+    pub separated: usize,
+    /// ∫_Ω β_n / |Ω|.
+    pub mean_damage: f64,
+    /// |{β_n < 1/2}| by quadrature of the indicator (rule of degree 2l).
+    pub area_damage_below_half: f64,
+    /// KKT residual of the velocity step.
+    pub velocity_kkt: f64,
+    /// KKT residual of the damage step.
+    pub damage_kkt: f64,
+    /// Newton iterations of the velocity step.
+    pub newton_iterations: usize,
+    /// Semismooth Newton iterations of the friction problems.
+    pub friction_iterations: usize,
+    /// Active-set iterations of the damage step.
+    pub damage_iterations: usize,
+}
+
+impl HistoryRow {
+    fn csv_line(&self) -> String {
+        format!(
+            "{},{},{},{},{},{},{},{},{:e},{:e},{},{},{}\n",
+            self.step,
+            self.time,
+            self.normal_force,
+            self.stick,
+            self.slip,
+            self.separated,
+            self.mean_damage,
+            self.area_damage_below_half,
+            self.velocity_kkt,
+            self.damage_kkt,
+            self.newton_iterations,
+            self.friction_iterations,
+            self.damage_iterations
+        )
+    }
+}
+
+/// File name of the domain VTU of step n.
+pub fn solution_file(step: usize) -> String {
+    format!("solution_{step:06}.vtu")
+}
+
+/// File name of the Γ3 VTU of step n.
+pub fn contact_file(step: usize) -> String {
+    format!("contact_{step:06}.vtu")
+}
+
+/// Cell stress σ = 𝒜ε(v) + G(ε(u), β) (2.1) at the centroid of every cell, row-major D×D.
+pub fn cell_stress<const D: usize>(
+    setup: &ProblemSetup<D>,
+    space: &LagrangeSpace<D>,
+    state: &State,
+) -> Vec<f64> {
+    let model = &setup.problem.model;
+    let centroid = [1.0 / (D as f64 + 1.0); D];
+    let cells = space.mesh().num_cells();
+    let mut stress = Vec::with_capacity(cells * D * D);
+    for c in 0..cells {
+        let (_, velocity_gradient) = space.eval_vector(c, &centroid, &state.velocity);
+        let (_, displacement_gradient) = space.eval_vector(c, &centroid, &state.displacement);
+        let (damage, _) = space.eval_scalar(c, &centroid, &state.damage);
+        let sigma: Tensor<D> = model.viscosity.stress(&strain(&velocity_gradient))
+            + model
+                .elasticity
+                .stress(&strain(&displacement_gradient), damage);
+        for i in 0..D {
+            for j in 0..D {
+                stress.push(sigma[(i, j)]);
+            }
+        }
+    }
+    stress
+}
+
+/// ∫_Ω β / |Ω| and |{β < 1/2}|, both by a rule of degree 2l.
+fn damage_integrals<const D: usize>(
+    space: &LagrangeSpace<D>,
+    tabulation: &Tabulation<D>,
+    damage: &[f64],
+) -> (f64, f64) {
+    let (mut volume, mut integral, mut weak_area) = (0.0, 0.0, 0.0);
+    let n = tabulation.nodes;
+    for c in 0..space.mesh().num_cells() {
+        let det = space.geometry(c).det.abs();
+        let nodes = space.cell_nodes(c);
+        for q in 0..tabulation.len() {
+            let values = &tabulation.values[q * n..(q + 1) * n];
+            let beta: f64 = nodes.iter().zip(values).map(|(&a, v)| damage[a] * v).sum();
+            let weight = tabulation.weights[q] * det;
+            volume += weight;
+            integral += weight * beta;
+            if beta < 0.5 {
+                weak_area += weight;
+            }
+        }
+    }
+    (integral / volume, weak_area)
+}
+
+fn io_error(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> VerifyError {
+    let path = path.to_path_buf();
+    move |e| VerifyError::io(action, path, e)
+}
+
+/// Reads `state.json` of a folder.
+pub fn read_saved_state(dir: &Path) -> Result<SavedState, VerifyError> {
+    let path = dir.join(STATE_FILE);
+    let text = std::fs::read_to_string(&path).map_err(io_error("reading saved state", &path))?;
+    serde_json::from_str(&text)
+        .map_err(|e| VerifyError::InvalidInput(format!("{}: {e}", path.display())))
+}
+
+/// Runs the problem of `setup` with `options`; see the module documentation for the files.
+pub fn run<const D: usize>(
+    setup: &ProblemSetup<D>,
+    options: &RunOptions,
+) -> Result<RunOutcome, VerifyError> {
+    let dir = options
+        .out
+        .clone()
+        .unwrap_or_else(|| setup.output_dir.clone());
+    let mut simulation = Simulation::new(setup.problem.clone())?;
+    let space = simulation.space().clone();
+    let contact = simulation.contact().clone();
+    let steps = simulation.steps();
+    let state_path = dir.join(STATE_FILE);
+    let history_path = dir.join(HISTORY_FILE);
+    let invalid = |message: String| VerifyError::InvalidInput(message);
+
+    let mut saved_steps = Vec::new();
+    if options.resume {
+        let saved = read_saved_state(&dir)?;
+        let mismatch = |what: &str, saved_value: String, problem_value: String| {
+            invalid(format!(
+                "{} does not belong to {}: {what} is {saved_value} there but {problem_value} in the problem",
+                state_path.display(),
+                setup.origin
+            ))
+        };
+        if saved.dim != D {
+            return Err(mismatch("dim", saved.dim.to_string(), D.to_string()));
+        }
+        if saved.degree != setup.problem.degree {
+            return Err(mismatch(
+                "degree",
+                saved.degree.to_string(),
+                setup.problem.degree.to_string(),
+            ));
+        }
+        if saved.steps != steps {
+            return Err(mismatch(
+                "steps",
+                saved.steps.to_string(),
+                steps.to_string(),
+            ));
+        }
+        if saved.final_time.to_bits() != setup.problem.final_time.to_bits() {
+            return Err(mismatch(
+                "final_time",
+                saved.final_time.to_string(),
+                setup.problem.final_time.to_string(),
+            ));
+        }
+        if saved.nodes != space.num_nodes() {
+            return Err(mismatch(
+                "the number of nodes",
+                saved.nodes.to_string(),
+                space.num_nodes().to_string(),
+            ));
+        }
+        if saved.step > steps || saved.saved_steps.last() != Some(&saved.step) {
+            return Err(invalid(format!(
+                "{}: step {} is not the last saved step of a run of {steps} steps",
+                state_path.display(),
+                saved.step
+            )));
+        }
+        let expected_time = saved.step as f64 * simulation.time_step();
+        if saved.time.to_bits() != expected_time.to_bits() {
+            return Err(mismatch(
+                "the time of the step",
+                saved.time.to_string(),
+                expected_time.to_string(),
+            ));
+        }
+        saved_steps = saved.saved_steps.clone();
+        simulation.set_state(State {
+            step: saved.step,
+            time: saved.time,
+            displacement: saved.displacement,
+            velocity: saved.velocity,
+            damage: saved.damage,
+        })?;
+        truncate_history(&history_path, saved.step)?;
+    } else {
+        if state_path.exists() && !options.overwrite {
+            return Err(invalid(format!(
+                "{} already holds a run ({STATE_FILE}): continue it with --resume or start afresh with --overwrite",
+                dir.display()
+            )));
+        }
+        std::fs::create_dir_all(&dir).map_err(io_error("creating directory", &dir))?;
+        remove_old_output(&dir)?;
+        write_atomic(&history_path, format!("{HISTORY_HEADER}\n").as_bytes())?;
+    }
+    let started_from = simulation.state().step;
+    let mut history = OpenOptions::new()
+        .append(true)
+        .open(&history_path)
+        .map_err(io_error("opening", &history_path))?;
+
+    let tabulation = Tabulation::cell_rule(
+        space.element(),
+        &QuadratureRule::<D>::simplex(2 * space.degree()),
+    );
+    let last_step = options.until_step.unwrap_or(steps).min(steps);
+    let clock = Instant::now();
+    let mut max_kkt = [0.0f64; 2];
+    if !options.quiet {
+        println!(
+            "{}: d = {D}, l = {}, {} cells, {} nodes, {} contact nodes, N = {steps}, k = {:e}{}",
+            setup.name,
+            space.degree(),
+            space.mesh().num_cells(),
+            space.num_nodes(),
+            contact.len(),
+            simulation.time_step(),
+            if started_from > 0 {
+                format!(", resuming after step {started_from}")
+            } else {
+                String::new()
+            }
+        );
+    }
+    while simulation.state().step < last_step {
+        let (velocity, damage, normal_pressure, friction_bound) = simulation.step()?;
+        let state = simulation.state();
+        let n = state.step;
+        max_kkt[0] = max_kkt[0].max(velocity.stats.kkt_residual);
+        max_kkt[1] = max_kkt[1].max(damage.stats.kkt_residual);
+        let count = |s: ContactStatus| velocity.status.iter().filter(|&&x| x == s).count();
+        let (mean_damage, area_damage_below_half) =
+            damage_integrals(&space, &tabulation, &state.damage);
+        let row = HistoryRow {
+            step: n,
+            time: state.time,
+            normal_force: contact
+                .weights
+                .iter()
+                .zip(&normal_pressure)
+                .map(|(w, p)| w * p)
+                .sum(),
+            stick: count(ContactStatus::Stick),
+            slip: count(ContactStatus::Slip),
+            separated: count(ContactStatus::Separated),
+            mean_damage,
+            area_damage_below_half,
+            velocity_kkt: velocity.stats.kkt_residual,
+            damage_kkt: damage.stats.kkt_residual,
+            newton_iterations: velocity.stats.newton_iterations,
+            friction_iterations: velocity.stats.friction_iterations,
+            damage_iterations: damage.stats.iterations,
+        };
+        history
+            .write_all(row.csv_line().as_bytes())
+            .and_then(|()| history.flush())
+            .map_err(io_error("appending to", &history_path))?;
+
+        if n % setup.every == 0 || n == steps || n == last_step {
+            // Γ3 fields on all space nodes (zero off the contact nodes)
+            let nodes = space.num_nodes();
+            let mut status = vec![0.0; nodes];
+            let mut contact_node = vec![0.0; nodes];
+            let mut pressure = vec![0.0; nodes];
+            let mut tangential = vec![0.0; nodes * D];
+            for (k, &node) in contact.nodes.iter().enumerate() {
+                status[node] = match velocity.status[k] {
+                    ContactStatus::Separated => 0.0,
+                    ContactStatus::Stick => 1.0,
+                    ContactStatus::Slip => 2.0,
+                };
+                contact_node[node] = 1.0;
+                pressure[node] = normal_pressure[k];
+                for i in 0..D - 1 {
+                    let traction = -friction_bound[k] * velocity.multipliers[k * (D - 1) + i];
+                    for j in 0..D {
+                        tangential[node * D + j] += traction * contact.frames[k][(j, 1 + i)];
+                    }
+                }
+            }
+            let stress = cell_stress(setup, &space, state);
+            write_vtu(
+                &dir.join(solution_file(n)),
+                &space,
+                &[
+                    PointData::Vector {
+                        name: "displacement",
+                        values: &state.displacement,
+                    },
+                    PointData::Vector {
+                        name: "velocity",
+                        values: &state.velocity,
+                    },
+                    PointData::Scalar {
+                        name: "damage",
+                        values: &state.damage,
+                    },
+                ],
+                &[CellData::Tensor {
+                    name: "stress",
+                    values: &stress,
+                }],
+            )?;
+            write_boundary_vtu(
+                &dir.join(contact_file(n)),
+                &space,
+                BoundaryPart::Contact,
+                &[
+                    PointData::Scalar {
+                        name: "status",
+                        values: &status,
+                    },
+                    PointData::Scalar {
+                        name: "contact_node",
+                        values: &contact_node,
+                    },
+                    PointData::Scalar {
+                        name: "normal_pressure",
+                        values: &pressure,
+                    },
+                    PointData::Vector {
+                        name: "tangential_traction",
+                        values: &tangential,
+                    },
+                    PointData::Vector {
+                        name: "displacement",
+                        values: &state.displacement,
+                    },
+                ],
+            )?;
+            saved_steps.push(n);
+            let time_step = simulation.time_step();
+            let entries = |name: fn(usize) -> String| -> Vec<(f64, String)> {
+                saved_steps
+                    .iter()
+                    .map(|&s| (s as f64 * time_step, name(s)))
+                    .collect()
+            };
+            write_pvd(&dir.join("solution.pvd"), &entries(solution_file))?;
+            write_pvd(&dir.join("contact.pvd"), &entries(contact_file))?;
+            write_json_atomic(
+                &state_path,
+                &SavedState {
+                    name: setup.name.clone(),
+                    dim: D,
+                    degree: space.degree(),
+                    steps,
+                    final_time: setup.problem.final_time,
+                    nodes,
+                    saved_steps: saved_steps.clone(),
+                    step: n,
+                    time: state.time,
+                    displacement: state.displacement.clone(),
+                    velocity: state.velocity.clone(),
+                    damage: state.damage.clone(),
+                },
+            )?;
+            if !options.quiet {
+                let elapsed = clock.elapsed().as_secs_f64();
+                let done = n - started_from;
+                let left = elapsed / done as f64 * (last_step - n) as f64;
+                println!(
+                    "step {n:>6}/{steps}  t = {:<10.4e} Newton {:>2}  friction {:>3}  damage {:>3}  KKT {:.1e}/{:.1e}  contact {}/{}/{} (sep/stick/slip)  β̄ = {:.4}  {elapsed:.1} s, ≈ {left:.1} s left",
+                    state.time,
+                    row.newton_iterations,
+                    row.friction_iterations,
+                    row.damage_iterations,
+                    row.velocity_kkt,
+                    row.damage_kkt,
+                    row.separated,
+                    row.stick,
+                    row.slip,
+                    row.mean_damage,
+                );
+            }
+        }
+    }
+    history
+        .sync_all()
+        .map_err(io_error("syncing", &history_path))?;
+    Ok(RunOutcome {
+        output_dir: dir,
+        started_from,
+        last_step: simulation.state().step,
+        saved_steps,
+        max_kkt,
+        seconds: clock.elapsed().as_secs_f64(),
+    })
+}
+
+/// Keeps the header and the rows of steps 1, …, `step` of `history.csv` (rewritten
+/// atomically). Rows after them — steps done after the last saved step, possibly a line cut
+/// short by a crash — are dropped; a missing, reordered or malformed row among them is an error.
+fn truncate_history(path: &Path, step: usize) -> Result<(), VerifyError> {
+    let text = std::fs::read_to_string(path).map_err(io_error("reading", path))?;
+    let mut lines = text.lines();
+    if lines.next() != Some(HISTORY_HEADER) {
+        return Err(VerifyError::InvalidInput(format!(
+            "{}: the first line is not the history header",
+            path.display()
+        )));
+    }
+    let columns = HISTORY_HEADER.split(',').count();
+    let mut kept = format!("{HISTORY_HEADER}\n");
+    for expected in 1..=step {
+        let line = lines.next().unwrap_or("");
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != columns || fields[0] != expected.to_string() {
+            return Err(VerifyError::InvalidInput(format!(
+                "{}:{}: expected the complete row of step {expected}, found `{line}`",
+                path.display(),
+                expected + 1
+            )));
+        }
+        kept.push_str(line);
+        kept.push('\n');
+    }
+    write_atomic(path, kept.as_bytes())
+}
+
+/// Removes the files of an earlier run in `dir` (only the names this program writes).
+fn remove_old_output(dir: &Path) -> Result<(), VerifyError> {
+    let entries = std::fs::read_dir(dir).map_err(io_error("listing", dir))?;
+    for entry in entries {
+        let entry = entry.map_err(io_error("listing", dir))?;
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let ours = (name.starts_with("solution_") || name.starts_with("contact_"))
+            && name.ends_with(".vtu")
+            || ["solution.pvd", "contact.pvd", STATE_FILE, HISTORY_FILE].contains(&name.as_str());
+        if ours {
+            std::fs::remove_file(entry.path()).map_err(io_error("removing", &entry.path()))?;
+        }
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use contact_damage::mesh::{BoundaryPart::*, Mesh};
+    use std::sync::Arc;
+
+    fn unit_square_space(degree: usize) -> LagrangeSpace<2> {
+        let mesh = Mesh::box_mesh(
+            [0.0, 0.0],
+            [1.0, 2.0],
+            [3, 4],
+            [[Dirichlet, Neumann], [Contact, Neumann]],
+        )
+        .unwrap();
+        LagrangeSpace::new(Arc::new(mesh), degree).unwrap()
+    }
+
+    #[test]
+    fn damage_integrals_are_exact_for_linear_fields() {
+        for degree in [1, 2] {
+            let space = unit_square_space(degree);
+            let tabulation =
+                Tabulation::cell_rule(space.element(), &QuadratureRule::<2>::simplex(2 * degree));
+            // β = 0.2 + 0.3 x + 0.1 y on (0, 1) × (0, 2): mean 0.2 + 0.15 + 0.1
+            let damage = space.interpolate_scalar(|x| 0.2 + 0.3 * x[0] + 0.1 * x[1]);
+            let (mean, weak) = damage_integrals(&space, &tabulation, &damage);
+            assert!((mean - 0.45).abs() < 1e-14, "{mean}");
+            assert!(weak > 0.0 && weak < 2.0, "{weak}");
+            let (_, all) = damage_integrals(&space, &tabulation, &vec![0.3; damage.len()]);
+            let (_, none) = damage_integrals(&space, &tabulation, &vec![0.7; damage.len()]);
+            assert!((all - 2.0).abs() < 1e-14 && none == 0.0);
+        }
+    }
+
+    #[test]
+    fn cell_stress_is_viscous_plus_damaged_elastic_stress() {
+        let text = r#"
+            dim = 2
+            degree = 1
+            final_time = 1.0
+            steps = 1
+            [mesh]
+            box = { lower = [0.0, 0.0], upper = [1.0, 2.0], cells = [3, 4], sides = { x_min = "clamped", y_min = "contact" } }
+            [laws]
+            viscosity = { kind = "linear", shear = 0.5, bulk = 0.25 }
+            elasticity = { kind = "damaged_hooke", shear_modulus = 2.0, lame_lambda = 3.0 }
+            damage_source = { kind = "fremond", lambda_d = 0.1, lambda_w = 0.05, damage_floor = 0.1, strain_energy_cap = 10.0 }
+            contact = { stiffness = 10.0, friction = 0.4 }
+            damage_diffusion = 0.1
+        "#;
+        let file = verify::case::parse_toml(text, "inline").unwrap();
+        let setup = ProblemSetup::<2>::new(file, Path::new("inline.toml")).unwrap();
+        let space = unit_square_space(2);
+        // affine fields: ε(u) = [[0.1, 0.05], [0.05, -0.2]], ε(v) = [[0, 0.5], [0.5, 0.3]]
+        let state = State {
+            step: 0,
+            time: 0.0,
+            displacement: space.interpolate_vector(|x| [0.1 * x[0] + 0.1 * x[1], -0.2 * x[1]]),
+            velocity: space.interpolate_vector(|x| [x[1], 0.3 * x[1]]),
+            damage: vec![0.6; space.num_nodes()],
+        };
+        let stress = cell_stress(&setup, &space, &state);
+        let strain = Tensor::<2>::new(0.1, 0.05, 0.05, -0.2);
+        let rate = Tensor::<2>::new(0.0, 0.5, 0.5, 0.3);
+        let identity = Tensor::<2>::identity();
+        let expected = (rate * 2.0 * 0.5 + identity * 0.25 * rate.trace())
+            + (strain * 2.0 * 2.0 + identity * 3.0 * strain.trace()) * 0.6;
+        assert_eq!(stress.len(), space.mesh().num_cells() * 4);
+        for sigma in stress.chunks(4) {
+            for i in 0..2 {
+                for j in 0..2 {
+                    assert!((sigma[i * 2 + j] - expected[(i, j)]).abs() < 1e-13);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn history_is_truncated_to_the_saved_step() {
+        let dir = std::env::temp_dir().join(format!("simulate-history-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(HISTORY_FILE);
+        let row = |n: usize| format!("{n},0.1,0,0,0,1,1,0,0e0,0e0,1,1,1\n");
+        // rows 1..3 complete, then a row cut short by a crash
+        let text = format!("{HISTORY_HEADER}\n{}{}{}4,0.4,0", row(1), row(2), row(3));
+        std::fs::write(&path, &text).unwrap();
+        truncate_history(&path, 3).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            format!("{HISTORY_HEADER}\n{}{}{}", row(1), row(2), row(3))
+        );
+        truncate_history(&path, 1).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            format!("{HISTORY_HEADER}\n{}", row(1))
+        );
+        // a missing row is an error naming the line
+        let error = truncate_history(&path, 2).unwrap_err().to_string();
+        assert!(
+            error.contains(":3: expected the complete row of step 2"),
+            "{error}"
+        );
+        std::fs::write(&path, "step,t\n").unwrap();
+        assert!(truncate_history(&path, 0).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
