@@ -325,10 +325,12 @@ impl<const D: usize> VelocityOperator<D> {
         let m = self.tangential.len();
         let n = self.size();
         let mut inverse_block = Mat::<f64>::zeros(m, m);
-        const BLOCK: usize = 32;
+        // blocks of right-hand sides as wide as ~512 MB allow: wider blocks make the
+        // supernodal triangular solves matrix–matrix products
+        let block = (64_000_000 / n.max(1)).clamp(16, 256);
         let mut start = 0;
         while start < m {
-            let width = BLOCK.min(m - start);
+            let width = block.min(m - start);
             let mut rhs = Mat::<f64>::zeros(n, width);
             for j in 0..width {
                 rhs[(self.tangential[start + j], j)] = 1.0;
