@@ -5,8 +5,9 @@ use crate::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::perm::PermRef;
+use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
 };
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 use faer::{Conj, Mat, Side};
@@ -239,6 +240,52 @@ impl CholeskySolver {
         Ok(())
     }
 
+    /// The trailing `m × m` block L_cc of the factor (lower triangular, in elimination order) and
+    /// the unknowns eliminated last, when the factor is supernodal. If the last `m` unknowns of
+    /// the ordering are the set C, then L_cc L_ccᵀ is the Schur complement of A onto C.
+    /// None for simplicial factors or before factorization.
+    pub fn trailing_factor(&self, m: usize) -> Option<(Mat<f64>, Vec<usize>)> {
+        let values = self.factor.as_ref()?;
+        let SymbolicCholeskyRaw::Supernodal(symbolic) = self.symbolic.raw() else {
+            return None;
+        };
+        let n = self.size;
+        if m > n {
+            return None;
+        }
+        let first = n - m;
+        let factor = SupernodalLltRef::new(symbolic, values);
+        let mut block = Mat::<f64>::zeros(m, m);
+        for s in 0..symbolic.n_supernodes() {
+            let node = factor.supernode(s);
+            let start = node.start();
+            let val = node.val();
+            let width = val.ncols();
+            if start + width <= first {
+                continue;
+            }
+            for j in 0..width {
+                let col = start + j;
+                if col < first {
+                    continue;
+                }
+                for i in j..width {
+                    block[(start + i - first, col - first)] = val[(i, j)];
+                }
+                for (k, &row) in node.pattern().iter().enumerate() {
+                    if row >= first {
+                        block[(row - first, col - first)] = val[(width + k, j)];
+                    }
+                }
+            }
+        }
+        let unknowns = match self.symbolic.perm() {
+            Some(perm) => perm.arrays().0[first..].to_vec(),
+            None => (first..n).collect(),
+        };
+        Some((block, unknowns))
+    }
+
     /// True once a numeric factorization is available.
     pub fn is_factorized(&self) -> bool {
         self.factor.is_some()
@@ -265,7 +312,10 @@ impl CholeskySolver {
             context: self.context.into(),
             message: "solve requested before factorization".into(),
         })?;
-        let par = faer::get_global_parallelism();
+        // Triangular solves are memory-bound: measured on 2 cores (2D, 0.5 M unknowns, 128
+        // right-hand sides) the sequential solve took 3.8 s against 11.3 s with rayon, and the
+        // velocity and damage steps already run concurrently.
+        let par = faer::Par::Seq;
         let mut memory = MemBuffer::try_new(
             self.symbolic
                 .solve_in_place_scratch::<f64>(block.ncols(), par),

@@ -194,28 +194,32 @@ impl<const D: usize> VelocityOperator<D> {
             linearized_at: None,
         };
         operator.matrix = operator.assemble(None)?;
-        // Fill-reducing ordering, chosen by measurement (3D P1 at N = 32: nested dissection gives
-        // 0.98e8 factor entries against 1.74e8 for AMD and factorizes 1.7× faster; in 2D AMD is
-        // slightly better): geometric nested dissection of the nodes in 3D, AMD in 2D.
-        operator.solver = if D == 3 {
-            let space = &operator.space;
-            let graph = NodeGraph::from_cells(
-                space.num_nodes(),
-                (0..space.mesh().num_cells()).map(|c| space.cell_nodes(c)),
-            );
-            let node_order = nested_dissection(space.nodes(), &graph, 64);
-            let ordering: Vec<usize> = node_order
-                .iter()
-                .flat_map(|&node| (0..D).map(move |i| node * D + i))
-                .collect();
-            CholeskySolver::analyse_with_ordering(
-                &operator.matrix,
-                &ordering,
-                "velocity operator (5.1)",
-            )?
-        } else {
-            CholeskySolver::analyse(&operator.matrix, "velocity operator (5.1)")?
-        };
+        // Elimination order: geometric nested dissection of the nodes (the D unknowns of a node
+        // together), with the tangential contact unknowns moved to the end. Then the trailing
+        // block L_cc of the factor gives the condensed operator S = L_cc L_ccᵀ directly, without
+        // m solves. (Measured, 3D P1 N = 32: nested dissection 0.98e8 factor entries against
+        // 1.74e8 for AMD, 1.7× faster factorization; in 2D the two are within 15%.)
+        let space = &operator.space;
+        let graph = NodeGraph::from_cells(
+            space.num_nodes(),
+            (0..space.mesh().num_cells()).map(|c| space.cell_nodes(c)),
+        );
+        let node_order = nested_dissection(space.nodes(), &graph, 64);
+        let mut is_tangential = vec![false; operator.pattern.size()];
+        for &dof in &operator.tangential {
+            is_tangential[dof] = true;
+        }
+        let ordering: Vec<usize> = node_order
+            .iter()
+            .flat_map(|&node| (0..D).map(move |i| node * D + i))
+            .filter(|&dof| !is_tangential[dof])
+            .chain(operator.tangential.iter().copied())
+            .collect();
+        operator.solver = CholeskySolver::analyse_with_ordering(
+            &operator.matrix,
+            &ordering,
+            "velocity operator (5.1)",
+        )?;
         Ok(operator)
     }
 
@@ -322,8 +326,21 @@ impl<const D: usize> VelocityOperator<D> {
     /// contact unknowns: Z = E_cᵀ H^{-1} E_c (block solves), S = Z^{-1}.
     fn factorize(&mut self) -> Result<()> {
         self.solver.factorize(&self.matrix)?;
+        self.schur = match self.schur_from_trailing_factor() {
+            Some(schur) => schur,
+            None => self.schur_from_solves()?,
+        };
+        Ok(())
+    }
+
+    /// S = (E_cᵀ H^{-1} E_c)^{-1} by m solves in blocks and a dense inverse (used when the
+    /// factor is simplicial, i.e. small).
+    fn schur_from_solves(&self) -> Result<Mat<f64>> {
         let m = self.tangential.len();
         let n = self.size();
+        if m == 0 {
+            return Ok(Mat::zeros(0, 0));
+        }
         let mut inverse_block = Mat::<f64>::zeros(m, m);
         // blocks of right-hand sides as wide as ~512 MB allow: wider blocks make the
         // supernodal triangular solves matrix–matrix products
@@ -343,24 +360,47 @@ impl<const D: usize> VelocityOperator<D> {
             }
             start += width;
         }
-        if m > 0 {
-            // symmetrize against round-off, then invert through a dense Cholesky factorization
-            let sym = Mat::<f64>::from_fn(m, m, |i, j| {
-                0.5 * (inverse_block[(i, j)] + inverse_block[(j, i)])
-            });
-            let llt = sym
-                .llt(faer::Side::Lower)
-                .map_err(|e| Error::LinearAlgebra {
-                    context: "condensed velocity operator E_cᵀ H⁻¹ E_c".into(),
-                    message: format!("dense Cholesky failed: {e:?}"),
-                })?;
-            let inverse = faer::linalg::solvers::DenseSolveCore::inverse(&llt);
-            self.schur =
-                Mat::<f64>::from_fn(m, m, |i, j| 0.5 * (inverse[(i, j)] + inverse[(j, i)]));
-        } else {
-            self.schur = Mat::zeros(0, 0);
+        // symmetrize against round-off, then invert through a dense Cholesky factorization
+        let sym = Mat::<f64>::from_fn(m, m, |i, j| {
+            0.5 * (inverse_block[(i, j)] + inverse_block[(j, i)])
+        });
+        let llt = sym
+            .llt(faer::Side::Lower)
+            .map_err(|e| Error::LinearAlgebra {
+                context: "condensed velocity operator E_cᵀ H⁻¹ E_c".into(),
+                message: format!("dense Cholesky failed: {e:?}"),
+            })?;
+        let inverse = faer::linalg::solvers::DenseSolveCore::inverse(&llt);
+        Ok(Mat::<f64>::from_fn(m, m, |i, j| {
+            0.5 * (inverse[(i, j)] + inverse[(j, i)])
+        }))
+    }
+
+    /// S = L_cc L_ccᵀ from the trailing block of the factor, in the order of `tangential`; None
+    /// when the factor is simplicial or its last unknowns are not the tangential ones (then
+    /// [`Self::factorize`] falls back to m solves).
+    fn schur_from_trailing_factor(&self) -> Option<Mat<f64>> {
+        let m = self.tangential.len();
+        if m == 0 {
+            return None;
         }
-        Ok(())
+        let (trailing, unknowns) = self.solver.trailing_factor(m)?;
+        let mut position = vec![usize::MAX; self.size()];
+        for (i, &dof) in self.tangential.iter().enumerate() {
+            position[dof] = i;
+        }
+        let index: Vec<usize> = unknowns.iter().map(|&dof| position[dof]).collect();
+        if index.contains(&usize::MAX) {
+            return None;
+        }
+        let product = &trailing * trailing.transpose();
+        let mut schur = Mat::<f64>::zeros(m, m);
+        for (p, &i) in index.iter().enumerate() {
+            for (q, &j) in index.iter().enumerate() {
+                schur[(i, j)] = product[(p, q)];
+            }
+        }
+        Some(schur)
     }
 
     /// Σ_K ∫ Φ(ε(v)) dx and the internal force vector ⟨𝒜ε(v), ε(φ_a e_i)⟩ in the system frame.
@@ -699,4 +739,72 @@ impl<const D: usize> VelocityOperator<D> {
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::laws::LinearViscosity;
+    use crate::mesh::{BoundaryPart::*, Mesh};
+
+    fn operator<const D: usize>(mesh: Mesh<D>) -> VelocityOperator<D> {
+        let space = Arc::new(LagrangeSpace::new(Arc::new(mesh), 1).unwrap());
+        let contact = Arc::new(ContactNodes::new(&space).unwrap());
+        let mut operator = VelocityOperator::new(
+            space,
+            Arc::new(LinearViscosity {
+                shear: 1.0,
+                bulk: 0.5,
+            }),
+            contact,
+        )
+        .unwrap();
+        operator.solver.factorize(&operator.matrix).unwrap();
+        operator
+    }
+
+    fn assert_schur_paths_agree<const D: usize>(operator: &VelocityOperator<D>) {
+        let from_factor = operator
+            .schur_from_trailing_factor()
+            .expect("a supernodal factor with the contact unknowns last");
+        let from_solves = operator.schur_from_solves().unwrap();
+        let m = operator.tangential.len();
+        let scale = (0..m)
+            .map(|i| from_solves[(i, i)].abs())
+            .fold(0.0, f64::max);
+        let mut worst: f64 = 0.0;
+        for i in 0..m {
+            for j in 0..m {
+                worst = worst.max((from_factor[(i, j)] - from_solves[(i, j)]).abs());
+            }
+        }
+        assert!(
+            worst <= 1e-10 * scale,
+            "Schur complements differ by {worst:e} (scale {scale:e})"
+        );
+    }
+
+    #[test]
+    fn schur_complement_from_trailing_factor_matches_solves_2d() {
+        let mesh = Mesh::box_mesh(
+            [0.0; 2],
+            [1.0; 2],
+            [128, 128],
+            [[Dirichlet, Neumann], [Contact, Neumann]],
+        )
+        .unwrap();
+        assert_schur_paths_agree(&operator(mesh));
+    }
+
+    #[test]
+    fn schur_complement_from_trailing_factor_matches_solves_3d() {
+        let mesh = Mesh::box_mesh(
+            [0.0; 3],
+            [1.0; 3],
+            [8; 3],
+            [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]],
+        )
+        .unwrap();
+        assert_schur_paths_agree(&operator(mesh));
+    }
 }
