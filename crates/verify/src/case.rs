@@ -287,7 +287,7 @@ impl LawsFile {
             friction: laws_file.contact.friction,
             wear: laws_file.contact.wear,
         });
-        let laws = Laws {
+        let laws = Model {
             viscosity,
             elasticity,
             damage_source,
@@ -651,13 +651,7 @@ impl<const D: usize> Case<D> {
         Ok(Problem {
             mesh: Arc::new(self.mesh(cells)?),
             degree,
-            model: Model {
-                viscosity: laws.viscosity.clone(),
-                elasticity: laws.elasticity.clone(),
-                damage_source: laws.damage_source.clone(),
-                contact: laws.contact.clone(),
-                damage_diffusion: laws.damage_diffusion,
-            },
+            model: laws.clone(),
             data: Data {
                 body_force: Some(Arc::new(move |x, t| e0.body_force(&l0, x, t))),
                 traction: Some(Arc::new(move |x, t, n| e2.traction(&l2, x, t, n))),

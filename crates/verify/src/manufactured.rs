@@ -7,10 +7,10 @@
 //! written by hand.
 
 use crate::expr::Expr;
-use contact_damage::laws::{ContactLaw, DamageSource, Elasticity, Tensor, Viscosity};
+use contact_damage::laws::Tensor;
+use contact_damage::scheme::Model;
 use nalgebra::{Const, SMatrix, SVector};
 use num_dual::{hessian, Dual2Vec, Dual64};
-use std::sync::Arc;
 
 /// Value, time derivative, spatial gradient and Hessian of a scalar field and of its time derivative.
 #[derive(Debug, Clone, Copy)]
@@ -87,20 +87,9 @@ pub struct ExactSolution<const D: usize> {
     pub gap: Expr,
 }
 
-/// The constitutive laws the sources are derived with (the same objects the solver uses).
-#[derive(Clone)]
-pub struct Laws<const D: usize> {
-    /// 𝒜.
-    pub viscosity: Arc<dyn Viscosity<D>>,
-    /// G.
-    pub elasticity: Arc<dyn Elasticity<D>>,
-    /// φ.
-    pub damage_source: Arc<dyn DamageSource<D>>,
-    /// p_ν, p_τ.
-    pub contact: Arc<dyn ContactLaw>,
-    /// κ.
-    pub damage_diffusion: f64,
-}
+/// The constitutive laws the sources are derived with: the solver's own [`Model`], so the
+/// manufactured data and the scheme use the same objects.
+pub type Laws<const D: usize> = Model<D>;
 
 /// All derivatives of the exact fields at one point and time.
 #[derive(Debug, Clone, Copy)]
