@@ -68,6 +68,60 @@ impl NodeGraph {
     }
 }
 
+/// The fill-reducing node order used by the solver, chosen by measurement (P1, 2 cores): in 3D
+/// geometric nested dissection (N = 32: 0.98e8 factor entries against 1.74e8 for minimum
+/// degree), in 2D minimum degree (N = 512: 5.8e7 against 6.6e7 for nested dissection).
+pub fn fill_reducing_node_order<const D: usize>(
+    points: &[[f64; D]],
+    graph: &NodeGraph,
+) -> crate::Result<Vec<usize>> {
+    if D == 3 {
+        Ok(nested_dissection(points, graph, 64))
+    } else {
+        minimum_degree(graph)
+    }
+}
+
+/// Approximate minimum degree order of the nodes (faer's AMD on the node graph): position →
+/// node.
+pub fn minimum_degree(graph: &NodeGraph) -> crate::Result<Vec<usize>> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::sparse::linalg::amd;
+    use faer::sparse::SymbolicSparseColMat;
+    let n = graph.offsets.len() - 1;
+    let failure = |message: String| crate::Error::LinearAlgebra {
+        context: "minimum degree ordering".into(),
+        message,
+    };
+    // the pattern with the diagonal, each column sorted
+    let mut col_ptr = Vec::with_capacity(n + 1);
+    let mut row_idx = Vec::with_capacity(graph.neighbours.len() + n);
+    col_ptr.push(0);
+    for a in 0..n {
+        let neighbours = graph.neighbours(a);
+        let split = neighbours.partition_point(|&b| b < a);
+        row_idx.extend_from_slice(&neighbours[..split]);
+        row_idx.push(a);
+        row_idx.extend_from_slice(&neighbours[split..]);
+        col_ptr.push(row_idx.len());
+    }
+    let nnz = row_idx.len();
+    let pattern = SymbolicSparseColMat::<usize>::new_checked(n, n, col_ptr, None, row_idx);
+    let mut forward = vec![0usize; n];
+    let mut inverse = vec![0usize; n];
+    let mut memory = MemBuffer::try_new(amd::order_maybe_unsorted_scratch::<usize>(n, nnz))
+        .map_err(|e| failure(format!("out of memory: {e:?}")))?;
+    amd::order_maybe_unsorted(
+        &mut forward,
+        &mut inverse,
+        pattern.as_ref(),
+        amd::Control::default(),
+        MemStack::new(&mut memory),
+    )
+    .map_err(|e| failure(format!("{e:?}")))?;
+    Ok(forward)
+}
+
 /// Nested-dissection order of the nodes (a permutation: position → node), eliminated first to
 /// last; sets of at most `leaf` nodes are kept in their natural order.
 pub fn nested_dissection<const D: usize>(
@@ -134,6 +188,15 @@ fn dissect<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn minimum_degree_is_a_permutation() {
+        let cells = [[0usize, 1, 2], [1, 2, 3], [2, 3, 4]];
+        let graph = NodeGraph::from_cells(5, cells.iter().map(|c| &c[..]));
+        let mut order = minimum_degree(&graph).unwrap();
+        order.sort_unstable();
+        assert_eq!(order, vec![0, 1, 2, 3, 4]);
+    }
 
     #[test]
     fn nested_dissection_is_a_permutation_with_plane_separators() {
