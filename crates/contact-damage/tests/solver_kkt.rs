@@ -215,3 +215,43 @@ fn damage_step_activates_both_bounds() {
     );
     assert!(solution.stats.kkt_residual <= 1e-10);
 }
+
+#[test]
+fn velocity_step_with_nonlinear_viscosity_satisfies_kkt() {
+    use contact_damage::laws::SaturatingViscosity;
+    let space = Arc::new(LagrangeSpace::new(Arc::new(common::square(6)), 1).unwrap());
+    let contact = Arc::new(ContactNodes::new(&space).unwrap());
+    let law = Arc::new(SaturatingViscosity {
+        linear: LinearViscosity { shear: 1.0, bulk: 0.3 },
+        extra_shear: 5.0,
+        rate_scale: 0.01,
+    });
+    let mut operator = VelocityOperator::new(space.clone(), law, contact.clone()).unwrap();
+    let mut rng = Lcg(11);
+    let n = space.num_nodes() * 2;
+    let load: Vec<f64> = (0..n).map(|_| 0.05 * rng.symmetric()).collect();
+    let (pressure, bound): (Vec<f64>, Vec<f64>) = (0..contact.len())
+        .map(|k| match k % 3 {
+            0 => (0.0, 0.0),
+            1 => (1.0, 10.0),
+            _ => (1.0, 1e-4),
+        })
+        .unzip();
+    let data = VelocityData {
+        load: &load,
+        normal_pressure: &pressure,
+        friction_bound: &bound,
+    };
+    let solution = operator.solve(&data, &vec![0.0; n], &VelocitySettings::default()).unwrap();
+    // the saturating law is genuinely nonlinear at these rates: Newton needs several iterations
+    assert!(solution.stats.newton_iterations >= 3, "{:?}", solution.stats);
+    assert!(solution.stats.kkt_residual <= 1e-10, "{:?}", solution.stats);
+    let weights: Vec<f64> = contact.weights.iter().zip(&bound).map(|(w, s)| w * s).collect();
+    let mut system_load = operator.to_system(&load);
+    for (k, &node) in contact.nodes.iter().enumerate() {
+        system_load[node * 2] -= contact.weights[k] * pressure[k];
+    }
+    let kkt = operator.kkt_residual(&system_load, &weights, &operator.to_system(&solution.velocity), &solution.multipliers);
+    assert!(kkt <= 1e-10, "recomputed KKT residual {kkt:e}");
+    check_regime(&solution.status, Regime::Mixed);
+}
