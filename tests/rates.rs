@@ -18,6 +18,16 @@ fn case<const D: usize>(name: &str) -> Case<D> {
 
 fn assert_study(study: &StudyResult) {
     for rate in &study.rates {
+        println!(
+            "{}-study l={}: {:<20} least squares {:.3} pairwise {:?}",
+            study.kind.name(),
+            study.degree,
+            rate.component,
+            rate.least_squares,
+            rate.pairwise
+        );
+    }
+    for rate in &study.rates {
         if let (Some(expected), Some(pass)) = (rate.expected, rate.pass) {
             assert!(
                 pass && rate.least_squares >= expected - RATE_TOLERANCE,

@@ -222,7 +222,10 @@ fn velocity_step_with_nonlinear_viscosity_satisfies_kkt() {
     let space = Arc::new(LagrangeSpace::new(Arc::new(common::square(6)), 1).unwrap());
     let contact = Arc::new(ContactNodes::new(&space).unwrap());
     let law = Arc::new(SaturatingViscosity {
-        linear: LinearViscosity { shear: 1.0, bulk: 0.3 },
+        linear: LinearViscosity {
+            shear: 1.0,
+            bulk: 0.3,
+        },
         extra_shear: 5.0,
         rate_scale: 0.01,
     });
@@ -242,16 +245,32 @@ fn velocity_step_with_nonlinear_viscosity_satisfies_kkt() {
         normal_pressure: &pressure,
         friction_bound: &bound,
     };
-    let solution = operator.solve(&data, &vec![0.0; n], &VelocitySettings::default()).unwrap();
+    let solution = operator
+        .solve(&data, &vec![0.0; n], &VelocitySettings::default())
+        .unwrap();
     // the saturating law is genuinely nonlinear at these rates: Newton needs several iterations
-    assert!(solution.stats.newton_iterations >= 3, "{:?}", solution.stats);
+    assert!(
+        solution.stats.newton_iterations >= 3,
+        "{:?}",
+        solution.stats
+    );
     assert!(solution.stats.kkt_residual <= 1e-10, "{:?}", solution.stats);
-    let weights: Vec<f64> = contact.weights.iter().zip(&bound).map(|(w, s)| w * s).collect();
+    let weights: Vec<f64> = contact
+        .weights
+        .iter()
+        .zip(&bound)
+        .map(|(w, s)| w * s)
+        .collect();
     let mut system_load = operator.to_system(&load);
     for (k, &node) in contact.nodes.iter().enumerate() {
         system_load[node * 2] -= contact.weights[k] * pressure[k];
     }
-    let kkt = operator.kkt_residual(&system_load, &weights, &operator.to_system(&solution.velocity), &solution.multipliers);
+    let kkt = operator.kkt_residual(
+        &system_load,
+        &weights,
+        &operator.to_system(&solution.velocity),
+        &solution.multipliers,
+    );
     assert!(kkt <= 1e-10, "recomputed KKT residual {kkt:e}");
     check_regime(&solution.status, Regime::Mixed);
 }
