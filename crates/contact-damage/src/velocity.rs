@@ -56,7 +56,7 @@ impl Default for VelocitySettings {
 /// Statistics of one velocity step.
 #[derive(Debug, Clone, Default)]
 pub struct VelocityStats {
-    /// Outer (proximal) Newton iterations; 1 for a linear 𝒜.
+    /// Outer (proximal) Newton iterations; for a linear 𝒜, 1 plus the refinement passes.
     pub newton_iterations: usize,
     /// Semismooth Newton iterations of the condensed friction problems.
     pub friction_iterations: usize,
@@ -596,10 +596,14 @@ impl<const D: usize> VelocityOperator<D> {
                     .map(|((h, n), f)| h - (n - f))
                     .collect()
             };
+            // a linear 𝒜 is solved exactly by one model solve; further passes are iterative
+            // refinement against round-off (at most MAX_REFINEMENTS)
+            let base = (linear && stats.newton_iterations > 1).then_some(velocity.as_slice());
             let trial = self.solve_model(
                 &model_rhs,
                 &weights,
                 &velocity,
+                base,
                 &mut multipliers,
                 settings,
                 &mut stats,
@@ -611,9 +615,12 @@ impl<const D: usize> VelocityOperator<D> {
                 if stats.kkt_residual <= settings.tolerance {
                     break;
                 }
+                if stats.newton_iterations <= MAX_REFINEMENTS {
+                    continue;
+                }
                 return Err(Error::NoConvergence {
-                    solver: "velocity step (5.1), linear viscosity",
-                    iterations: 1,
+                    solver: "velocity step (5.1), linear viscosity (with iterative refinement)",
+                    iterations: stats.newton_iterations,
                     residual: stats.kkt_residual,
                     tolerance: settings.tolerance,
                     history: crate::error::History(history),
@@ -695,16 +702,32 @@ impl<const D: usize> VelocityOperator<D> {
 
     /// Exact solution of the model problem min ½ yᵀHy − bᵀy + Σ w_a |y_τ(a)| by condensation
     /// onto the tangential contact unknowns.
+    ///
+    /// With `base = Some(v)` the two solves are done in iterative-refinement form,
+    /// v + H^{-1}(b − H v), which recovers the digits lost to round-off in the factor and in S.
+    #[allow(clippy::too_many_arguments)]
     fn solve_model(
         &self,
         rhs: &[f64],
         weights: &[f64],
         start: &[f64],
+        base: Option<&[f64]>,
         multipliers: &mut [f64],
         settings: &VelocitySettings,
         stats: &mut VelocityStats,
     ) -> Result<Vec<f64>> {
-        let free = self.solver.solve(rhs)?;
+        let solve = |b: &[f64]| -> Result<Vec<f64>> {
+            match base {
+                None => self.solver.solve(b),
+                Some(v) => {
+                    let hv = multiply(&self.matrix, v);
+                    let residual: Vec<f64> = b.iter().zip(&hv).map(|(b, h)| b - h).collect();
+                    let correction = self.solver.solve(&residual)?;
+                    Ok(v.iter().zip(&correction).map(|(v, c)| v + c).collect())
+                }
+            }
+        };
+        let free = solve(rhs)?;
         if self.tangential.is_empty() {
             return Ok(free);
         }
@@ -729,7 +752,7 @@ impl<const D: usize> VelocityOperator<D> {
         for (i, &dof) in self.tangential.iter().enumerate() {
             corrected[dof] -= weights[i / g] * multipliers[i];
         }
-        let mut solution = self.solver.solve(&corrected)?;
+        let mut solution = solve(&corrected)?;
         // the tangential unknowns are those of the condensed solution (exact zeros at stick nodes)
         for (i, &dof) in self.tangential.iter().enumerate() {
             solution[dof] = x[i];
@@ -737,6 +760,9 @@ impl<const D: usize> VelocityOperator<D> {
         Ok(solution)
     }
 }
+
+/// Passes of iterative refinement allowed after the exact solve of a linear velocity step.
+const MAX_REFINEMENTS: usize = 3;
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
