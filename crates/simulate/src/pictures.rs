@@ -417,6 +417,8 @@ pub fn damage_svg<const D: usize>(
         .map_err(|e| error(&e))?;
         root.present().map_err(|e| error(&e))?;
     }
+    // no anti-aliasing of the polygons: it would show hairline seams between the cells
+    let svg = svg.replacen("<svg ", "<svg shape-rendering=\"crispEdges\" ", 1);
     write_atomic(path, svg.as_bytes())
 }
 
