@@ -3,8 +3,10 @@
 //! (VTU per saved step, PVD time series), a CSV time history and restarts.
 //!
 //! - [`problem`]: the problem file and its translation into the solver's problem;
-//! - [`run`]: the time loop, the output files and `--resume`.
+//! - [`run`]: the time loop, the output files and `--resume`;
+//! - [`pictures`]: SVG pictures of the damage field and of the contact history on Γ3.
 
+pub mod pictures;
 pub mod problem;
 pub mod run;
 

@@ -23,6 +23,7 @@
 //! [output]
 //! every = 1                # save every N-th step (and the last one)
 //! dir = "results/NAME"     # default results/<name>, name = file stem unless `name` is given
+//! pictures = [2.5, 5.0]    # times of the damage pictures (SVG), default [T/2, T]
 //! ```
 //!
 //! Box sides not listed are traction sides (Γ2). The traction may use the outward normal
@@ -165,6 +166,10 @@ pub struct OutputFile {
     /// Output folder (relative to the working directory); default `results/<name>`.
     #[serde(default)]
     pub dir: Option<String>,
+    /// Times of the damage pictures `damage_NNNNNN.svg` (each drawn at the nearest step);
+    /// default T/2 and T.
+    #[serde(default)]
+    pub pictures: Option<Vec<f64>>,
 }
 
 fn one() -> usize {
@@ -176,6 +181,7 @@ impl Default for OutputFile {
         Self {
             every: 1,
             dir: None,
+            pictures: None,
         }
     }
 }
@@ -194,6 +200,8 @@ pub struct ProblemSetup<const D: usize> {
     pub every: usize,
     /// Default output folder.
     pub output_dir: PathBuf,
+    /// Times of the damage pictures, each in (0, T].
+    pub pictures: Vec<f64>,
 }
 
 fn problem_error(origin: &str, key: &str, message: impl Into<String>) -> VerifyError {
@@ -309,6 +317,24 @@ impl<const D: usize> ProblemSetup<D> {
         }
         if file.output.every == 0 {
             return Err(problem_error(origin, "output.every", "must be at least 1"));
+        }
+        let pictures = file
+            .output
+            .pictures
+            .clone()
+            .unwrap_or_else(|| vec![0.5 * file.final_time, file.final_time]);
+        if let Some(bad) = pictures
+            .iter()
+            .find(|&&t| !(t.is_finite() && t > 0.0 && t <= file.final_time))
+        {
+            return Err(problem_error(
+                origin,
+                "output.pictures",
+                format!(
+                    "every time must lie in (0, final_time = {}], got {bad}",
+                    file.final_time
+                ),
+            ));
         }
         let name = match &file.name {
             Some(name) => name.clone(),
@@ -447,6 +473,7 @@ impl<const D: usize> ProblemSetup<D> {
             problem,
             every: file.output.every,
             output_dir,
+            pictures,
             file,
         })
     }

@@ -9,11 +9,19 @@
 //!   −p_τ λ (Cartesian) as used in step n;
 //! - `solution.pvd`, `contact.pvd`: the time series (rewritten atomically at each saved step);
 //! - `history.csv`: one row per step, appended and flushed after each step;
-//! - `state.json`: the state of the last saved step (written atomically, last), for `--resume`.
+//! - `state.json`: the state of the last saved step (written atomically, last), for `--resume`;
+//! - `damage_NNNNNN.svg` at the steps nearest the picture times, `contact_history.csv` (one
+//!   row per step and contact node of the line drawn, appended like `history.csv`) and
+//!   `contact_history.svg`, drawn from it at the end of every run: see [`crate::pictures`].
 //!
 //! A crash or Ctrl-C therefore leaves every completed saved step on disk; resuming truncates
 //! `history.csv` to the resumed step and continues bitwise as the uninterrupted run would.
 
+use crate::pictures::{
+    contact_history_svg, damage_picture_file, damage_svg, picture_steps, pressure_steps,
+    read_contact_history, truncate_contact_history, ContactLine, CONTACT_HISTORY_FILE,
+    CONTACT_HISTORY_HEADER, CONTACT_HISTORY_PICTURE,
+};
 use crate::problem::ProblemSetup;
 use contact_damage::contact::ContactStatus;
 use contact_damage::laws::Tensor;
@@ -241,6 +249,9 @@ pub fn run<const D: usize>(
     let steps = simulation.steps();
     let state_path = dir.join(STATE_FILE);
     let history_path = dir.join(HISTORY_FILE);
+    let contact_history_path = dir.join(CONTACT_HISTORY_FILE);
+    let contact_line = ContactLine::new(&space, &contact);
+    let pictures = picture_steps(&setup.pictures, simulation.time_step(), steps);
     let invalid = |message: String| VerifyError::InvalidInput(message);
 
     let mut saved_steps = Vec::new();
@@ -308,6 +319,11 @@ pub fn run<const D: usize>(
             damage: saved.damage,
         })?;
         truncate_history(&history_path, saved.step)?;
+        truncate_contact_history(
+            &contact_history_path,
+            saved.step,
+            contact_line.indices.len(),
+        )?;
     } else {
         if state_path.exists() && !options.overwrite {
             return Err(invalid(format!(
@@ -318,12 +334,20 @@ pub fn run<const D: usize>(
         std::fs::create_dir_all(&dir).map_err(io_error("creating directory", &dir))?;
         remove_old_output(&dir)?;
         write_atomic(&history_path, format!("{HISTORY_HEADER}\n").as_bytes())?;
+        write_atomic(
+            &contact_history_path,
+            format!("{CONTACT_HISTORY_HEADER}\n").as_bytes(),
+        )?;
     }
     let started_from = simulation.state().step;
     let mut history = OpenOptions::new()
         .append(true)
         .open(&history_path)
         .map_err(io_error("opening", &history_path))?;
+    let mut contact_history = OpenOptions::new()
+        .append(true)
+        .open(&contact_history_path)
+        .map_err(io_error("opening", &contact_history_path))?;
 
     let tabulation = Tabulation::cell_rule(
         space.element(),
@@ -381,6 +405,23 @@ pub fn run<const D: usize>(
             .write_all(row.csv_line().as_bytes())
             .and_then(|()| history.flush())
             .map_err(io_error("appending to", &history_path))?;
+        contact_history
+            .write_all(
+                contact_line
+                    .csv_rows(n, state.time, &velocity.status, &normal_pressure)
+                    .as_bytes(),
+            )
+            .and_then(|()| contact_history.flush())
+            .map_err(io_error("appending to", &contact_history_path))?;
+        if pictures.contains(&n) {
+            damage_svg(
+                &dir.join(damage_picture_file(n)),
+                &space,
+                &state.damage,
+                n,
+                state.time,
+            )?;
+        }
 
         if n % setup.every == 0 || n == steps || n == last_step {
             // Γ3 fields on all space nodes (zero off the contact nodes)
@@ -504,6 +545,18 @@ pub fn run<const D: usize>(
     history
         .sync_all()
         .map_err(io_error("syncing", &history_path))?;
+    contact_history
+        .sync_all()
+        .map_err(io_error("syncing", &contact_history_path))?;
+    let records = read_contact_history(&contact_history_path)?;
+    if !records.is_empty() {
+        contact_history_svg(
+            &dir.join(CONTACT_HISTORY_PICTURE),
+            &records,
+            &contact_line.description,
+            &pressure_steps(&records, &pictures),
+        )?;
+    }
     Ok(RunOutcome {
         output_dir: dir,
         started_from,
@@ -552,7 +605,16 @@ fn remove_old_output(dir: &Path) -> Result<(), VerifyError> {
         let name = entry.file_name().to_string_lossy().into_owned();
         let ours = (name.starts_with("solution_") || name.starts_with("contact_"))
             && name.ends_with(".vtu")
-            || ["solution.pvd", "contact.pvd", STATE_FILE, HISTORY_FILE].contains(&name.as_str());
+            || name.starts_with("damage_") && name.ends_with(".svg")
+            || [
+                "solution.pvd",
+                "contact.pvd",
+                STATE_FILE,
+                HISTORY_FILE,
+                CONTACT_HISTORY_FILE,
+                CONTACT_HISTORY_PICTURE,
+            ]
+            .contains(&name.as_str());
         if ours {
             std::fs::remove_file(entry.path()).map_err(io_error("removing", &entry.path()))?;
         }

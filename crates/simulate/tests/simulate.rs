@@ -191,6 +191,9 @@ fn resumed_run_equals_uninterrupted_run_bitwise() {
     let mut history = std::fs::read_to_string(split.join("history.csv")).unwrap();
     history.push_str("6,0.3,0,0,0,8,1,0,0e0,0e0,1,1,1\n");
     std::fs::write(split.join("history.csv"), history).unwrap();
+    let mut contact_history = std::fs::read_to_string(split.join("contact_history.csv")).unwrap();
+    contact_history.push_str("6,0.3,0.25,1,0.5\n6,0.3,0.5,");
+    std::fs::write(split.join("contact_history.csv"), contact_history).unwrap();
 
     let second = simulate::run_file(
         &problem,
@@ -213,7 +216,15 @@ fn resumed_run_equals_uninterrupted_run_bitwise() {
     assert_eq!(bits(&a.displacement), bits(&b.displacement));
     assert_eq!(bits(&a.velocity), bits(&b.velocity));
     assert_eq!(bits(&a.damage), bits(&b.damage));
-    for file in ["history.csv", "solution_000012.vtu", "contact_000012.vtu"] {
+    for file in [
+        "history.csv",
+        "solution_000012.vtu",
+        "contact_000012.vtu",
+        "contact_history.csv",
+        "contact_history.svg",
+        "damage_000006.svg",
+        "damage_000012.svg",
+    ] {
         let (a, b) = (
             std::fs::read_to_string(whole.join(file)).unwrap(),
             std::fs::read_to_string(split.join(file)).unwrap(),
@@ -307,6 +318,11 @@ fn bad_problem_files_name_the_key() {
     for (from, to, expected) in [
         ("[output]", "[outptu]", "unknown field `outptu`"),
         ("every = 10", "every = 0", "key `output.every`"),
+        (
+            "every = 10",
+            "every = 10\npictures = [2.5, 6.0]",
+            "key `output.pictures`: every time must lie in (0, final_time = 5], got 6",
+        ),
         ("gap = \"0.02*x\"", "gap = \"0.02*t\"", "key `loads.gap`"),
         (
             "gap = \"0.02*x\"",
@@ -372,4 +388,65 @@ fn gmsh_problem_runs_on_a_committed_mesh() {
         error.contains("key `mesh.gmsh`") && error.contains("foundation"),
         "{error}"
     );
+}
+
+#[test]
+fn pictures_show_damage_on_every_cell_and_the_contact_history_with_legends() {
+    let dir = scratch("pictures");
+    let problem = tiny_example(&dir);
+    let out = dir.join("out");
+    simulate::run_file(&problem, &quiet(&out)).unwrap();
+    let read = |name: &str| std::fs::read_to_string(out.join(name)).unwrap();
+
+    // default picture times T/2 = 0.3 and T = 0.6: steps 6 and 12 of k = 0.05
+    for (name, time) in [
+        ("damage_000006.svg", "0.3000"),
+        ("damage_000012.svg", "0.6000"),
+    ] {
+        let svg = read(name);
+        assert!(svg.contains("<svg"), "{name}");
+        // one filled triangle per cell of the 8 × 4 mesh, and a colour bar of 50 bands
+        assert_eq!(svg.matches("<polygon").count(), 64, "{name}");
+        assert!(svg.matches("<rect").count() >= 50, "{name}");
+        assert!(svg.contains(&format!("t = {time}")), "{name}");
+        assert!(svg.contains("damage β on Ω"), "{name}");
+    }
+    assert!(!out.join("damage_000004.svg").exists());
+
+    // 8 contact nodes on y = 0 (the clamped corner is none) in each of the 12 steps
+    let csv = read("contact_history.csv");
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("step,t,s,status,normal_pressure"));
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|f| f.parse().unwrap()).collect())
+        .collect();
+    assert_eq!(rows.len(), 12 * 8);
+    for (index, row) in rows.iter().enumerate() {
+        assert_eq!(row[0], (index / 8 + 1) as f64);
+        assert!(
+            (row[2] - (index % 8 + 1) as f64 * 0.25).abs() < 1e-12,
+            "{row:?}"
+        );
+        assert!(
+            [0.0, 1.0, 2.0].contains(&row[3]) && row[4] >= 0.0,
+            "{row:?}"
+        );
+    }
+    // the bump presses the body onto the foundation: some node is in contact at some step
+    assert!(rows.iter().any(|row| row[3] > 0.0 && row[4] > 0.0));
+
+    let svg = read("contact_history.svg");
+    assert!(svg.contains("<svg") && svg.contains("<rect") && svg.contains("<polyline"));
+    for label in [
+        "separated",
+        "stick",
+        "slip",
+        "contact status on Γ3 over time",
+        "normal pressure p_ν on Γ3",
+        "t = 0.3000",
+        "t = 0.6000",
+        "x on Γ3",
+    ] {
+        assert!(svg.contains(label), "{label} is missing");
+    }
 }

@@ -1,0 +1,696 @@
+//! SVG pictures of a run: the damage field at chosen times and the contact history on Γ3.
+//!
+//! - `damage_NNNNNN.svg`: β_n on the mesh (2D: every triangle filled with the colour of the mean
+//!   of its nodal values), or on the contact face Γ3 (3D: its facets projected onto the plane
+//!   of the face), with a colour bar 0..1;
+//! - `contact_history.svg`: along Γ3, the contact status (separated, stick, slip) of every
+//!   step as a space–time map, and below it the normal pressure p_ν at a few times.
+//!
+//! The contact history is drawn from `contact_history.csv` (one row per contact node of the
+//! line drawn and step, appended during the run and truncated on `--resume` like
+//! `history.csv`), so that a resumed run draws the whole run. The coordinate `s` along Γ3 is
+//! the coordinate axis along which the contact nodes spread most; in 3D only the contact nodes
+//! on the line of the face nearest its middle (in the other in-plane axis) are recorded — on a
+//! box mesh that is a grid line, on an unstructured mesh the nodes that happen to lie on it.
+
+use contact_damage::contact::{ContactNodes, ContactStatus};
+use contact_damage::mesh::BoundaryPart;
+use contact_damage::space::LagrangeSpace;
+use plotters::prelude::*;
+use std::path::Path;
+use verify::output::write_atomic;
+use verify::VerifyError;
+
+/// Name of the per-node contact history.
+pub const CONTACT_HISTORY_FILE: &str = "contact_history.csv";
+/// Header of the per-node contact history (status: 0 separated, 1 stick, 2 slip).
+pub const CONTACT_HISTORY_HEADER: &str = "step,t,s,status,normal_pressure";
+/// Name of the contact history picture.
+pub const CONTACT_HISTORY_PICTURE: &str = "contact_history.svg";
+/// Legend of the contact status values 0, 1, 2.
+pub const STATUS_LABELS: [&str; 3] = ["separated", "stick", "slip"];
+/// Colours of the contact status values 0, 1, 2 (grey, blue, orange).
+const STATUS_COLORS: [RGBColor; 3] = [
+    RGBColor(200, 200, 200),
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+];
+/// Names of the coordinate axes.
+const AXIS_NAMES: [&str; 3] = ["x", "y", "z"];
+
+/// File name of the damage picture of step n.
+pub fn damage_picture_file(step: usize) -> String {
+    format!("damage_{step:06}.svg")
+}
+
+/// Steps n = round(t / k), clamped to 1..=N, of the picture times `times` (sorted, unique).
+pub fn picture_steps(times: &[f64], time_step: f64, steps: usize) -> Vec<usize> {
+    let mut chosen: Vec<usize> = times
+        .iter()
+        .map(|t| ((t / time_step).round() as usize).clamp(1, steps))
+        .collect();
+    chosen.sort_unstable();
+    chosen.dedup();
+    chosen
+}
+
+/// Colour of β ∈ [0, 1] on the viridis scale (dark violet at 0 = fully damaged, yellow at
+/// 1 = sound), linear between five anchor colours; values outside are clamped.
+pub fn damage_color(beta: f64) -> RGBColor {
+    const ANCHORS: [(f64, f64, f64); 5] = [
+        (68.0, 1.0, 84.0),
+        (59.0, 82.0, 139.0),
+        (33.0, 145.0, 140.0),
+        (94.0, 201.0, 98.0),
+        (253.0, 231.0, 37.0),
+    ];
+    let position = if beta.is_nan() {
+        0.0
+    } else {
+        beta.clamp(0.0, 1.0)
+    } * 4.0;
+    let low = (position.floor() as usize).min(3);
+    let weight = position - low as f64;
+    let (a, b) = (ANCHORS[low], ANCHORS[low + 1]);
+    let mix = |x: f64, y: f64| (x + weight * (y - x)).round() as u8;
+    RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
+}
+
+/// Index of the coordinate in which `points` spread least (`smallest = true`) or most.
+fn axis_of_spread<const D: usize>(points: &[[f64; D]], smallest: bool, among: &[usize]) -> usize {
+    let spread = |axis: usize| {
+        let (low, high) = points
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |acc, p| {
+                (acc.0.min(p[axis]), acc.1.max(p[axis]))
+            });
+        high - low
+    };
+    let mut best = among[0];
+    for &axis in &among[1..] {
+        let better = if smallest {
+            spread(axis) < spread(best)
+        } else {
+            spread(axis) > spread(best)
+        };
+        if better {
+            best = axis;
+        }
+    }
+    best
+}
+
+/// The contact nodes whose history is recorded, in the order of their coordinate along Γ3.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ContactLine {
+    /// Indices k into the contact nodes (`ContactNodes::nodes[k]`), sorted by `coordinates`.
+    pub indices: Vec<usize>,
+    /// Their coordinate s along Γ3.
+    pub coordinates: Vec<f64>,
+    /// The axis of s.
+    pub axis: usize,
+    /// What s is, for the picture, e.g. `x on Γ3 (y = 0.5)`.
+    pub description: String,
+}
+
+impl ContactLine {
+    /// The line of contact nodes of `contact`: all of them in 2D, those on the line nearest
+    /// the middle of the face in 3D (see the module documentation).
+    pub fn new<const D: usize>(space: &LagrangeSpace<D>, contact: &ContactNodes<D>) -> Self {
+        let points: Vec<[f64; D]> = contact.nodes.iter().map(|&a| space.node(a)).collect();
+        if points.is_empty() {
+            return Self {
+                indices: Vec::new(),
+                coordinates: Vec::new(),
+                axis: 0,
+                description: "Γ3 (no contact nodes)".into(),
+            };
+        }
+        let all: Vec<usize> = (0..D).collect();
+        let normal = axis_of_spread(&points, true, &all);
+        let in_plane: Vec<usize> = all.iter().copied().filter(|&i| i != normal).collect();
+        let axis = axis_of_spread(&points, false, &in_plane);
+        let mut description = format!("{} on Γ3", AXIS_NAMES[axis]);
+        let mut indices: Vec<usize> = (0..points.len()).collect();
+        if D == 3 {
+            let across = in_plane[0] + in_plane[1] - axis;
+            let (low, high) = points
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |acc, p| {
+                    (acc.0.min(p[across]), acc.1.max(p[across]))
+                });
+            let middle = 0.5 * (low + high);
+            let nearest = points
+                .iter()
+                .map(|p| p[across])
+                .min_by(|a, b| (a - middle).abs().total_cmp(&(b - middle).abs()))
+                .unwrap_or(middle);
+            let tolerance = 1e-9 * (high - low).max(f64::MIN_POSITIVE);
+            indices.retain(|&k| (points[k][across] - nearest).abs() <= tolerance);
+            description = format!("{description} ({} = {nearest})", AXIS_NAMES[across]);
+        }
+        indices.sort_by(|&a, &b| points[a][axis].total_cmp(&points[b][axis]));
+        let coordinates = indices.iter().map(|&k| points[k][axis]).collect();
+        Self {
+            indices,
+            coordinates,
+            axis,
+            description,
+        }
+    }
+
+    /// Rows of `contact_history.csv` of step n: status and p_ν of the nodes of the line.
+    pub fn csv_rows(
+        &self,
+        step: usize,
+        time: f64,
+        status: &[ContactStatus],
+        normal_pressure: &[f64],
+    ) -> String {
+        let mut rows = String::new();
+        for (&k, s) in self.indices.iter().zip(&self.coordinates) {
+            let code = match status[k] {
+                ContactStatus::Separated => 0,
+                ContactStatus::Stick => 1,
+                ContactStatus::Slip => 2,
+            };
+            rows.push_str(&format!(
+                "{step},{time},{s},{code},{}\n",
+                normal_pressure[k]
+            ));
+        }
+        rows
+    }
+}
+
+/// A row of `contact_history.csv`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactRecord {
+    /// n.
+    pub step: usize,
+    /// t_n.
+    pub time: f64,
+    /// Coordinate along Γ3.
+    pub coordinate: f64,
+    /// 0 separated, 1 stick, 2 slip.
+    pub status: usize,
+    /// p_ν used in step n.
+    pub normal_pressure: f64,
+}
+
+fn parse_record(line: &str) -> Option<ContactRecord> {
+    let fields: Vec<&str> = line.split(',').collect();
+    if fields.len() != 5 {
+        return None;
+    }
+    let record = ContactRecord {
+        step: fields[0].parse().ok()?,
+        time: fields[1].parse().ok()?,
+        coordinate: fields[2].parse().ok()?,
+        status: fields[3].parse().ok()?,
+        normal_pressure: fields[4].parse().ok()?,
+    };
+    (record.status <= 2 && record.time.is_finite() && record.coordinate.is_finite())
+        .then_some(record)
+}
+
+/// Reads `contact_history.csv`; a malformed row is an error naming its line.
+pub fn read_contact_history(path: &Path) -> Result<Vec<ContactRecord>, VerifyError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| VerifyError::io("reading contact history", path, e))?;
+    let mut lines = text.lines();
+    if lines.next() != Some(CONTACT_HISTORY_HEADER) {
+        return Err(VerifyError::InvalidInput(format!(
+            "{}: the first line is not the contact history header",
+            path.display()
+        )));
+    }
+    lines
+        .enumerate()
+        .map(|(index, line)| {
+            parse_record(line).ok_or_else(|| {
+                VerifyError::InvalidInput(format!(
+                    "{}:{}: expected `{CONTACT_HISTORY_HEADER}`, found `{line}`",
+                    path.display(),
+                    index + 2
+                ))
+            })
+        })
+        .collect()
+}
+
+/// Keeps the header and the rows of steps 1, …, `step` of `contact_history.csv` — there must
+/// be exactly `rows_per_step` complete rows of each, in order — and drops the rest (steps done
+/// after the last saved step, possibly a row cut short by a crash); rewritten atomically.
+pub fn truncate_contact_history(
+    path: &Path,
+    step: usize,
+    rows_per_step: usize,
+) -> Result<(), VerifyError> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| VerifyError::io("reading contact history", path, e))?;
+    let mut lines = text.lines();
+    if lines.next() != Some(CONTACT_HISTORY_HEADER) {
+        return Err(VerifyError::InvalidInput(format!(
+            "{}: the first line is not the contact history header",
+            path.display()
+        )));
+    }
+    let mut kept = format!("{CONTACT_HISTORY_HEADER}\n");
+    for row in 0..step * rows_per_step {
+        let expected = row / rows_per_step + 1;
+        let line = lines.next().unwrap_or("");
+        if parse_record(line).map(|r| r.step) != Some(expected) {
+            return Err(VerifyError::InvalidInput(format!(
+                "{}:{}: expected a complete row of step {expected}, found `{line}`",
+                path.display(),
+                row + 2
+            )));
+        }
+        kept.push_str(line);
+        kept.push('\n');
+    }
+    write_atomic(path, kept.as_bytes())
+}
+
+fn plot_error(path: &Path) -> impl Fn(&dyn std::fmt::Display) -> VerifyError + '_ {
+    move |error| VerifyError::Plot {
+        path: path.to_path_buf(),
+        message: error.to_string(),
+    }
+}
+
+/// Range [low, high] of `values` padded by 2% (or ±1 if empty or flat).
+fn padded_range(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (low, high) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |acc, v| {
+        (acc.0.min(v), acc.1.max(v))
+    });
+    if !(low.is_finite() && high.is_finite()) {
+        return (-1.0, 1.0);
+    }
+    let pad = 0.02 * (high - low);
+    if pad > 0.0 {
+        (low - pad, high + pad)
+    } else {
+        (low - 1.0, high + 1.0)
+    }
+}
+
+/// Draws β (`damage`, nodal values of `space`) at time `time` into the SVG file `path`: in 2D
+/// on every cell, in 3D on the facets of Γ3 projected onto the plane of the face; each
+/// polygon has the colour ([`damage_color`]) of the mean of its nodal values.
+pub fn damage_svg<const D: usize>(
+    path: &Path,
+    space: &LagrangeSpace<D>,
+    damage: &[f64],
+    step: usize,
+    time: f64,
+) -> Result<(), VerifyError> {
+    let mesh = space.mesh();
+    // polygons (projected vertex coordinates) and their mean β
+    let mut polygons: Vec<(Vec<(f64, f64)>, f64)> = Vec::new();
+    let mean = |nodes: &[usize]| nodes.iter().map(|&a| damage[a]).sum::<f64>() / nodes.len() as f64;
+    let (first, second, where_) = if D == 2 {
+        for c in 0..mesh.num_cells() {
+            let corners = mesh
+                .cell(c)
+                .iter()
+                .map(|&v| {
+                    let x = mesh.vertex(v);
+                    (x[0], x[1])
+                })
+                .collect();
+            polygons.push((corners, mean(space.cell_nodes(c))));
+        }
+        (0, 1, "Ω")
+    } else {
+        let facets: Vec<usize> = (0..mesh.num_facets())
+            .filter(|&f| mesh.facet_part(f) == BoundaryPart::Contact)
+            .collect();
+        let points: Vec<[f64; D]> = facets
+            .iter()
+            .flat_map(|&f| mesh.facet(f).iter().map(|&v| mesh.vertex(v)))
+            .collect();
+        if points.is_empty() {
+            return Err(VerifyError::InvalidInput(
+                "the damage picture of a 3D run needs a contact face Γ3, and it is empty".into(),
+            ));
+        }
+        let all: Vec<usize> = (0..D).collect();
+        let normal = axis_of_spread(&points, true, &all);
+        let in_plane: Vec<usize> = all.into_iter().filter(|&i| i != normal).collect();
+        for &f in &facets {
+            let corners = mesh
+                .facet(f)
+                .iter()
+                .map(|&v| {
+                    let x = mesh.vertex(v);
+                    (x[in_plane[0]], x[in_plane[1]])
+                })
+                .collect();
+            polygons.push((corners, mean(space.facet_nodes(f))));
+        }
+        (in_plane[0], in_plane[1], "Γ3")
+    };
+    let (x_low, x_high) = padded_range(polygons.iter().flat_map(|(c, _)| c.iter().map(|p| p.0)));
+    let (y_low, y_high) = padded_range(polygons.iter().flat_map(|(c, _)| c.iter().map(|p| p.1)));
+    // keep the aspect ratio of the domain: 740 px for the width of the mesh
+    let plot_height = (740.0 * (y_high - y_low) / (x_high - x_low)).clamp(200.0, 900.0);
+    let size = (900, plot_height as u32 + 110);
+    let error = plot_error(path);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| error(&e))?;
+        let (left, right) = root.split_horizontally(size.0 - 120);
+        let mut chart = ChartBuilder::on(&left)
+            .caption(
+                format!("damage β on {where_}, step {step}, t = {time:.4}"),
+                ("sans-serif", 20),
+            )
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(45)
+            .build_cartesian_2d(x_low..x_high, y_low..y_high)
+            .map_err(|e| error(&e))?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc(AXIS_NAMES[first])
+            .y_desc(AXIS_NAMES[second])
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 16))
+            .draw()
+            .map_err(|e| error(&e))?;
+        chart
+            .draw_series(
+                polygons
+                    .into_iter()
+                    .map(|(corners, beta)| Polygon::new(corners, damage_color(beta).filled())),
+            )
+            .map_err(|e| error(&e))?;
+
+        let mut bar = ChartBuilder::on(&right)
+            .caption("β", ("sans-serif", 18))
+            .margin_top(10)
+            .margin_bottom(45)
+            .margin_right(45)
+            .y_label_area_size(0)
+            .right_y_label_area_size(45)
+            .build_cartesian_2d(0.0..1.0, 0.0..1.0)
+            .map_err(|e| error(&e))?;
+        bar.configure_mesh()
+            .disable_mesh()
+            .disable_x_axis()
+            .y_labels(6)
+            .label_style(("sans-serif", 14))
+            .draw()
+            .map_err(|e| error(&e))?;
+        const BANDS: usize = 50;
+        bar.draw_series((0..BANDS).map(|i| {
+            let (low, high) = (i as f64 / BANDS as f64, (i + 1) as f64 / BANDS as f64);
+            Rectangle::new(
+                [(0.0, low), (1.0, high)],
+                damage_color(0.5 * (low + high)).filled(),
+            )
+        }))
+        .map_err(|e| error(&e))?;
+        root.present().map_err(|e| error(&e))?;
+    }
+    // no anti-aliasing of the polygons: it would show hairline seams between the cells
+    let svg = svg.replacen("<svg ", "<svg shape-rendering=\"crispEdges\" ", 1);
+    write_atomic(path, svg.as_bytes())
+}
+
+/// Draws the contact history `records` (rows of `contact_history.csv`, in step order) into
+/// the SVG file `path`: the status of every node along Γ3 (`coordinate_label`) and step as a
+/// space–time map, and the normal pressure along Γ3 at the steps `pressure_steps` (those
+/// without records are left out).
+pub fn contact_history_svg(
+    path: &Path,
+    records: &[ContactRecord],
+    coordinate_label: &str,
+    pressure_steps: &[usize],
+) -> Result<(), VerifyError> {
+    if records.is_empty() {
+        return Err(VerifyError::InvalidInput(format!(
+            "{}: no contact history to draw (no contact node or no step)",
+            path.display()
+        )));
+    }
+    // records grouped by step (rows of one step are consecutive, in the order of s)
+    let mut steps: Vec<&[ContactRecord]> = records
+        .chunk_by(|a, b| a.step == b.step)
+        .collect::<Vec<_>>();
+    steps.sort_by_key(|rows| rows[0].step);
+    let coordinates: Vec<f64> = steps[0].iter().map(|r| r.coordinate).collect();
+    if let Some(rows) = steps.iter().find(|rows| {
+        rows.len() != coordinates.len()
+            || rows
+                .iter()
+                .zip(&coordinates)
+                .any(|(r, s)| r.coordinate != *s)
+    }) {
+        return Err(VerifyError::InvalidInput(format!(
+            "{}: step {} has other contact nodes than step {}",
+            path.display(),
+            rows[0].step,
+            steps[0][0].step
+        )));
+    }
+    // cell of node j along s: halfway to its neighbours
+    let count = coordinates.len();
+    let edge = |j: usize| -> f64 {
+        if j == 0 {
+            coordinates[0]
+        } else if j == count {
+            coordinates[count - 1]
+        } else {
+            0.5 * (coordinates[j - 1] + coordinates[j])
+        }
+    };
+    // time interval of step i: (t_{i-1}, t_i]
+    let start_time = |i: usize| if i == 0 { 0.0 } else { steps[i - 1][0].time };
+    let last_time = steps[steps.len() - 1][0].time;
+    let mut rectangles: [Vec<[(f64, f64); 2]>; 3] = Default::default();
+    for j in 0..count {
+        // runs of equal status in time, one rectangle each
+        let mut begin = 0;
+        for i in 1..=steps.len() {
+            if i == steps.len() || steps[i][j].status != steps[begin][j].status {
+                rectangles[steps[begin][j].status].push([
+                    (edge(j), start_time(begin)),
+                    (edge(j + 1), steps[i - 1][0].time),
+                ]);
+                begin = i;
+            }
+        }
+    }
+    let (s_low, s_high) = (coordinates[0], coordinates[count - 1]);
+    let (s_low, s_high) = if s_high > s_low {
+        (s_low, s_high)
+    } else {
+        (s_low - 1.0, s_high + 1.0)
+    };
+    let curves: Vec<&[ContactRecord]> = steps
+        .iter()
+        .copied()
+        .filter(|rows| pressure_steps.contains(&rows[0].step))
+        .collect();
+    let (_, p_high) = padded_range(
+        curves
+            .iter()
+            .flat_map(|rows| rows.iter().map(|r| r.normal_pressure))
+            .chain([0.0]),
+    );
+
+    let error = plot_error(path);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (900, 900)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| error(&e))?;
+        let (top, bottom) = root.split_vertically(520);
+        let mut map = ChartBuilder::on(&top)
+            .caption("contact status on Γ3 over time", ("sans-serif", 20))
+            .margin(10)
+            .margin_right(130)
+            .x_label_area_size(40)
+            .y_label_area_size(55)
+            .build_cartesian_2d(s_low..s_high, 0.0..last_time)
+            .map_err(|e| error(&e))?;
+        map.configure_mesh()
+            .disable_mesh()
+            .x_desc(coordinate_label)
+            .y_desc("t")
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 16))
+            .draw()
+            .map_err(|e| error(&e))?;
+        for (status, cells) in rectangles.iter().enumerate() {
+            let color = STATUS_COLORS[status];
+            map.draw_series(
+                cells
+                    .iter()
+                    .map(|&corners| Rectangle::new(corners, color.filled())),
+            )
+            .map_err(|e| error(&e))?;
+        }
+        let entries: Vec<(String, RGBAColor, bool)> = STATUS_LABELS
+            .iter()
+            .zip(STATUS_COLORS)
+            .map(|(label, color)| (label.to_string(), color.to_rgba(), true))
+            .collect();
+        draw_legend(&top, &entries).map_err(|e| error(&e))?;
+
+        let mut lines = ChartBuilder::on(&bottom)
+            .caption("normal pressure p_ν on Γ3", ("sans-serif", 20))
+            .margin(10)
+            .margin_right(130)
+            .x_label_area_size(40)
+            .y_label_area_size(55)
+            .build_cartesian_2d(s_low..s_high, 0.0..p_high)
+            .map_err(|e| error(&e))?;
+        lines
+            .configure_mesh()
+            .x_desc(coordinate_label)
+            .y_desc("p_ν")
+            .label_style(("sans-serif", 14))
+            .axis_desc_style(("sans-serif", 16))
+            .light_line_style(WHITE)
+            .draw()
+            .map_err(|e| error(&e))?;
+        for (index, rows) in curves.iter().enumerate() {
+            let color = Palette99::pick(index).to_rgba();
+            lines
+                .draw_series(
+                    LineSeries::new(
+                        rows.iter().map(|r| (r.coordinate, r.normal_pressure)),
+                        color.stroke_width(2),
+                    )
+                    .point_size(2),
+                )
+                .map_err(|e| error(&e))?;
+        }
+        let entries: Vec<(String, RGBAColor, bool)> = curves
+            .iter()
+            .enumerate()
+            .map(|(index, rows)| {
+                (
+                    format!("t = {:.4}", rows[0].time),
+                    Palette99::pick(index).to_rgba(),
+                    false,
+                )
+            })
+            .collect();
+        draw_legend(&bottom, &entries).map_err(|e| error(&e))?;
+        root.present().map_err(|e| error(&e))?;
+    }
+    write_atomic(path, svg.as_bytes())
+}
+
+/// Legend in the right margin (130 px) of `area`: a filled square (`filled = true`) or a line
+/// of each colour, and its label.
+fn draw_legend(
+    area: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
+    entries: &[(String, RGBAColor, bool)],
+) -> Result<(), String> {
+    let left = area.dim_in_pixel().0 as i32 - 120;
+    for (index, (label, color, filled)) in entries.iter().enumerate() {
+        let y = 50 + 22 * index as i32;
+        if *filled {
+            area.draw(&Rectangle::new(
+                [(left, y - 7), (left + 14, y + 7)],
+                color.filled(),
+            ))
+            .map_err(|e| e.to_string())?;
+        } else {
+            area.draw(&PathElement::new(
+                vec![(left, y), (left + 18, y)],
+                color.stroke_width(2),
+            ))
+            .map_err(|e| e.to_string())?;
+        }
+        area.draw(&Text::new(
+            label.as_str(),
+            (left + 24, y - 7),
+            ("sans-serif", 14),
+        ))
+        .map_err(|e| e.to_string())?;
+    }
+    Ok(())
+}
+
+/// Steps at which the pressure is drawn: the picture steps and the step of the largest total
+/// pressure on the line, among the steps of `records`.
+pub fn pressure_steps(records: &[ContactRecord], picture_steps: &[usize]) -> Vec<usize> {
+    let mut totals: Vec<(usize, f64)> = Vec::new();
+    for record in records {
+        match totals.last_mut() {
+            Some((step, total)) if *step == record.step => *total += record.normal_pressure,
+            _ => totals.push((record.step, record.normal_pressure)),
+        }
+    }
+    let mut chosen: Vec<usize> = picture_steps
+        .iter()
+        .copied()
+        .filter(|s| totals.iter().any(|(step, _)| step == s))
+        .collect();
+    if let Some(&(step, _)) = totals.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
+        chosen.push(step);
+    }
+    chosen.sort_unstable();
+    chosen.dedup();
+    chosen
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn damage_colors_run_from_violet_to_yellow_and_clamp() {
+        assert_eq!(damage_color(0.0), RGBColor(68, 1, 84));
+        assert_eq!(damage_color(1.0), RGBColor(253, 231, 37));
+        assert_eq!(damage_color(0.5), RGBColor(33, 145, 140));
+        assert_eq!(damage_color(-3.0), damage_color(0.0));
+        assert_eq!(damage_color(7.0), damage_color(1.0));
+    }
+
+    #[test]
+    fn picture_steps_are_the_nearest_steps_clamped_and_unique() {
+        assert_eq!(picture_steps(&[2.5, 5.0], 0.02, 250), vec![125, 250]);
+        assert_eq!(picture_steps(&[5.0, 0.001, 4.999], 0.02, 250), vec![1, 250]);
+    }
+
+    #[test]
+    fn contact_history_is_truncated_to_the_saved_step() {
+        let dir = std::env::temp_dir().join(format!("simulate-contact-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(CONTACT_HISTORY_FILE);
+        let rows = |n: usize| format!("{n},0.1,0,1,0.5\n{n},0.1,1,2,0.25\n");
+        let text = format!(
+            "{CONTACT_HISTORY_HEADER}\n{}{}{}3,0.3,0",
+            rows(1),
+            rows(2),
+            rows(3)
+        );
+        std::fs::write(&path, text).unwrap();
+        truncate_contact_history(&path, 2, 2).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            format!("{CONTACT_HISTORY_HEADER}\n{}{}", rows(1), rows(2))
+        );
+        let records = read_contact_history(&path).unwrap();
+        assert_eq!(records.len(), 4);
+        assert_eq!(records[3].status, 2);
+        assert_eq!(pressure_steps(&records, &[1, 9]), vec![1, 2]);
+        let error = truncate_contact_history(&path, 3, 2)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains(":6: expected a complete row of step 3"),
+            "{error}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
