@@ -585,10 +585,15 @@ impl<const D: usize> VelocityOperator<D> {
                 self.factorize()?;
                 stats.factorizations += 1;
             }
+            // Φ-energy and internal force at the iterate, once per iteration (nonlinear 𝒜 only)
+            let (energy, force) = if linear {
+                (0.0, Vec::new())
+            } else {
+                self.energy_and_force(&velocity)
+            };
             let model_rhs = if linear {
                 load.clone()
             } else {
-                let (_, force) = self.energy_and_force(&velocity);
                 let hv = multiply(&self.matrix, &velocity);
                 hv.iter()
                     .zip(&force)
@@ -627,7 +632,6 @@ impl<const D: usize> VelocityOperator<D> {
                 });
             }
             // Armijo line search on J along v + α (trial − v)
-            let (energy, force) = self.energy_and_force(&velocity);
             let objective =
                 |v: &[f64], energy: f64| energy - dot(&load, v) + self.friction_term(&weights, v);
             let current = objective(&velocity, energy);
