@@ -4,8 +4,10 @@
 //!
 //! - [`problem`]: the problem file and its translation into the solver's problem;
 //! - [`run`]: the time loop, the output files and `--resume`;
+//! - [`history`]: the integral quantities of `history.csv` (forces, zones, slip, dissipation, damage);
 //! - [`pictures`]: SVG pictures of the damage field and of the contact history on Γ3.
 
+pub mod history;
 pub mod pictures;
 pub mod problem;
 pub mod run;

@@ -1,9 +1,15 @@
 //! `simulate PROBLEM.toml [--out DIR] [--resume]`: see the crate documentation.
+//!
+//! Exit codes: 0 done, 1 error, 130 interrupted by Ctrl-C (the step in progress was finished
+//! and saved; `--resume` continues). A second Ctrl-C ends the program at once; every file on
+//! disk is then still whole (all of them are written atomically or appended line by line).
 
 use clap::Parser;
 use simulate::run::RunOptions;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use verify::VerifyError;
 
 /// Runs Problem P (contact, friction, damage) from a TOML problem file and writes VTU/PVD
@@ -28,18 +34,53 @@ struct Cli {
     /// No progress lines.
     #[arg(long, short)]
     quiet: bool,
+    /// Worker threads (default: all cores).
+    #[arg(long)]
+    threads: Option<usize>,
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if let Some(threads) = cli.threads {
+        if let Err(error) = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads.max(1))
+            .build_global()
+        {
+            eprintln!("simulate: --threads {threads}: {error}");
+            return ExitCode::FAILURE;
+        }
+    }
+    let interrupt = Arc::new(AtomicBool::new(false));
+    let flag = interrupt.clone();
+    let handler = ctrlc::set_handler(move || {
+        if flag.swap(true, Ordering::SeqCst) {
+            eprintln!("simulate: second interrupt, stopping now");
+            std::process::exit(130);
+        }
+        eprintln!("simulate: interrupt, finishing the step in progress (Ctrl-C again to stop now)");
+    });
+    if let Err(error) = handler {
+        eprintln!("simulate: cannot install the Ctrl-C handler: {error}");
+        return ExitCode::FAILURE;
+    }
     let options = RunOptions {
         out: cli.out,
         resume: cli.resume,
         overwrite: cli.overwrite,
         until_step: cli.until_step,
         quiet: cli.quiet,
+        interrupt: Some(interrupt),
     };
     match simulate::run_file(&cli.problem, &options) {
+        Ok(outcome) if outcome.interrupted => {
+            println!(
+                "interrupted after step {} ({:.1} s); output in {}; continue with --resume",
+                outcome.last_step,
+                outcome.seconds,
+                outcome.output_dir.display()
+            );
+            ExitCode::from(130)
+        }
         Ok(outcome) => {
             println!(
                 "steps {}..{} in {:.1} s, max KKT {:.1e} (velocity) {:.1e} (damage); output in {}",

@@ -4,7 +4,8 @@
 //!   of its nodal values), or on the contact face Γ3 (3D: its facets projected onto the plane
 //!   of the face), with a colour bar 0..1;
 //! - `contact_history.svg`: along Γ3, the contact status (separated, stick, slip) of every
-//!   step as a space–time map, and below it the normal pressure p_ν at a few times.
+//!   step as a space–time map, and below it the normal pressure p_ν and the accumulated slip
+//!   Σ_{m ≤ n} k |v_{m,τ}| at a few times.
 //!
 //! The contact history is drawn from `contact_history.csv` (one row per contact node of the
 //! line drawn and step, appended during the run and truncated on `--resume` like
@@ -23,8 +24,10 @@ use verify::VerifyError;
 
 /// Name of the per-node contact history.
 pub const CONTACT_HISTORY_FILE: &str = "contact_history.csv";
-/// Header of the per-node contact history (status: 0 separated, 1 stick, 2 slip).
-pub const CONTACT_HISTORY_HEADER: &str = "step,t,s,status,normal_pressure";
+/// Header of the per-node contact history (status: 0 separated, 1 stick, 2 slip; slip_rate
+/// |v_{n,τ}|; accumulated_slip Σ_{m ≤ n} k |v_{m,τ}|).
+pub const CONTACT_HISTORY_HEADER: &str =
+    "step,t,s,status,normal_pressure,slip_rate,accumulated_slip";
 /// Name of the contact history picture.
 pub const CONTACT_HISTORY_PICTURE: &str = "contact_history.svg";
 /// Legend of the contact status values 0, 1, 2.
@@ -159,13 +162,16 @@ impl ContactLine {
         }
     }
 
-    /// Rows of `contact_history.csv` of step n: status and p_ν of the nodes of the line.
+    /// Rows of `contact_history.csv` of step n: status, p_ν, |v_τ| and the accumulated slip
+    /// of the nodes of the line (the slices are indexed by contact node).
     pub fn csv_rows(
         &self,
         step: usize,
         time: f64,
         status: &[ContactStatus],
         normal_pressure: &[f64],
+        slip_rate: &[f64],
+        accumulated_slip: &[f64],
     ) -> String {
         let mut rows = String::new();
         for (&k, s) in self.indices.iter().zip(&self.coordinates) {
@@ -175,8 +181,8 @@ impl ContactLine {
                 ContactStatus::Slip => 2,
             };
             rows.push_str(&format!(
-                "{step},{time},{s},{code},{}\n",
-                normal_pressure[k]
+                "{step},{time},{s},{code},{},{},{}\n",
+                normal_pressure[k], slip_rate[k], accumulated_slip[k]
             ));
         }
         rows
@@ -196,11 +202,15 @@ pub struct ContactRecord {
     pub status: usize,
     /// p_ν used in step n.
     pub normal_pressure: f64,
+    /// |v_{n,τ}|.
+    pub slip_rate: f64,
+    /// Σ_{m ≤ n} k |v_{m,τ}|.
+    pub accumulated_slip: f64,
 }
 
 fn parse_record(line: &str) -> Option<ContactRecord> {
     let fields: Vec<&str> = line.split(',').collect();
-    if fields.len() != 5 {
+    if fields.len() != 7 {
         return None;
     }
     let record = ContactRecord {
@@ -209,6 +219,8 @@ fn parse_record(line: &str) -> Option<ContactRecord> {
         coordinate: fields[2].parse().ok()?,
         status: fields[3].parse().ok()?,
         normal_pressure: fields[4].parse().ok()?,
+        slip_rate: fields[5].parse().ok()?,
+        accumulated_slip: fields[6].parse().ok()?,
     };
     (record.status <= 2 && record.time.is_finite() && record.coordinate.is_finite())
         .then_some(record)
@@ -363,11 +375,25 @@ pub fn damage_svg<const D: usize>(
         let root = SVGBackend::with_string(&mut svg, size).into_drawing_area();
         root.fill(&WHITE).map_err(|e| error(&e))?;
         let (left, right) = root.split_horizontally(size.0 - 120);
-        let mut chart = ChartBuilder::on(&left)
-            .caption(
-                format!("damage β on {where_}, step {step}, t = {time:.4}"),
+        let left = left
+            .titled(
+                &format!("damage β on {where_}, step {step}, t = {time:.4}"),
                 ("sans-serif", 20),
             )
+            .map_err(|e| error(&e))?;
+        // one length unit is as many pixels along both axes (a circle stays round): the
+        // plotting area is what the margins (10) and label areas (45, 35) leave
+        let (width, height) = left.dim_in_pixel();
+        let plot_width = f64::from(width.saturating_sub(2 * 10 + 45).max(1));
+        let plot_height = f64::from(height.saturating_sub(2 * 10 + 35).max(1));
+        let scale = ((x_high - x_low) / plot_width).max((y_high - y_low) / plot_height);
+        let widen = |low: f64, high: f64, pixels: f64| {
+            let middle = 0.5 * (low + high);
+            (middle - 0.5 * scale * pixels, middle + 0.5 * scale * pixels)
+        };
+        let (x_low, x_high) = widen(x_low, x_high, plot_width);
+        let (y_low, y_high) = widen(y_low, y_high, plot_height);
+        let mut chart = ChartBuilder::on(&left)
             .margin(10)
             .x_label_area_size(35)
             .y_label_area_size(45)
@@ -424,8 +450,8 @@ pub fn damage_svg<const D: usize>(
 
 /// Draws the contact history `records` (rows of `contact_history.csv`, in step order) into
 /// the SVG file `path`: the status of every node along Γ3 (`coordinate_label`) and step as a
-/// space–time map, and the normal pressure along Γ3 at the steps `pressure_steps` (those
-/// without records are left out).
+/// space–time map, and the normal pressure and the accumulated slip along Γ3 at the steps
+/// `pressure_steps` (those without records are left out).
 pub fn contact_history_svg(
     path: &Path,
     records: &[ContactRecord],
@@ -503,13 +529,20 @@ pub fn contact_history_svg(
             .flat_map(|rows| rows.iter().map(|r| r.normal_pressure))
             .chain([0.0]),
     );
+    let (_, slip_high) = padded_range(
+        curves
+            .iter()
+            .flat_map(|rows| rows.iter().map(|r| r.accumulated_slip))
+            .chain([0.0]),
+    );
 
     let error = plot_error(path);
     let mut svg = String::new();
     {
-        let root = SVGBackend::with_string(&mut svg, (900, 900)).into_drawing_area();
+        let root = SVGBackend::with_string(&mut svg, (900, 1250)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| error(&e))?;
-        let (top, bottom) = root.split_vertically(520);
+        let (top, rest) = root.split_vertically(520);
+        let (middle, bottom) = rest.split_vertically(365);
         let mut map = ChartBuilder::on(&top)
             .caption("contact status on Γ3 over time", ("sans-serif", 20))
             .margin(10)
@@ -542,35 +575,6 @@ pub fn contact_history_svg(
             .collect();
         draw_legend(&top, &entries).map_err(|e| error(&e))?;
 
-        let mut lines = ChartBuilder::on(&bottom)
-            .caption("normal pressure p_ν on Γ3", ("sans-serif", 20))
-            .margin(10)
-            .margin_right(130)
-            .x_label_area_size(40)
-            .y_label_area_size(55)
-            .build_cartesian_2d(s_low..s_high, 0.0..p_high)
-            .map_err(|e| error(&e))?;
-        lines
-            .configure_mesh()
-            .x_desc(coordinate_label)
-            .y_desc("p_ν")
-            .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 16))
-            .light_line_style(WHITE)
-            .draw()
-            .map_err(|e| error(&e))?;
-        for (index, rows) in curves.iter().enumerate() {
-            let color = Palette99::pick(index).to_rgba();
-            lines
-                .draw_series(
-                    LineSeries::new(
-                        rows.iter().map(|r| (r.coordinate, r.normal_pressure)),
-                        color.stroke_width(2),
-                    )
-                    .point_size(2),
-                )
-                .map_err(|e| error(&e))?;
-        }
         let entries: Vec<(String, RGBAColor, bool)> = curves
             .iter()
             .enumerate()
@@ -582,11 +586,67 @@ pub fn contact_history_svg(
                 )
             })
             .collect();
-        draw_legend(&bottom, &entries).map_err(|e| error(&e))?;
+        let panels: [CurvePanel<'_, '_>; 2] = [
+            (
+                &middle,
+                "normal pressure p_ν on Γ3",
+                "p_ν",
+                p_high,
+                |r| r.normal_pressure,
+            ),
+            (
+                &bottom,
+                "accumulated slip Σ k |v_τ| on Γ3",
+                "slip",
+                slip_high,
+                |r| r.accumulated_slip,
+            ),
+        ];
+        for (area, caption, label, high, value) in panels {
+            let mut lines = ChartBuilder::on(area)
+                .caption(caption, ("sans-serif", 20))
+                .margin(10)
+                .margin_right(130)
+                .x_label_area_size(40)
+                .y_label_area_size(55)
+                .build_cartesian_2d(s_low..s_high, 0.0..high)
+                .map_err(|e| error(&e))?;
+            lines
+                .configure_mesh()
+                .x_desc(coordinate_label)
+                .y_desc(label)
+                .label_style(("sans-serif", 14))
+                .axis_desc_style(("sans-serif", 16))
+                .light_line_style(WHITE)
+                .draw()
+                .map_err(|e| error(&e))?;
+            for (index, rows) in curves.iter().enumerate() {
+                let color = Palette99::pick(index).to_rgba();
+                lines
+                    .draw_series(
+                        LineSeries::new(
+                            rows.iter().map(|r| (r.coordinate, value(r))),
+                            color.stroke_width(2),
+                        )
+                        .point_size(2),
+                    )
+                    .map_err(|e| error(&e))?;
+            }
+            draw_legend(area, &entries).map_err(|e| error(&e))?;
+        }
         root.present().map_err(|e| error(&e))?;
     }
     write_atomic(path, svg.as_bytes())
 }
+
+/// A panel of curves along Γ3: area, caption, axis label, upper end of the axis, value.
+type CurvePanel<'a, 'b> = (
+    &'a DrawingArea<SVGBackend<'b>, plotters::coord::Shift>,
+    &'static str,
+    &'static str,
+    f64,
+    fn(&ContactRecord) -> f64,
+);
 
 /// Legend in the right margin (130 px) of `area`: a filled square (`filled = true`) or a line
 /// of each colour, and its label.
@@ -667,7 +727,7 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("simulate-contact-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let path = dir.join(CONTACT_HISTORY_FILE);
-        let rows = |n: usize| format!("{n},0.1,0,1,0.5\n{n},0.1,1,2,0.25\n");
+        let rows = |n: usize| format!("{n},0.1,0,1,0.5,0,0\n{n},0.1,1,2,0.25,0.5,0.05\n");
         let text = format!(
             "{CONTACT_HISTORY_HEADER}\n{}{}{}3,0.3,0",
             rows(1),
@@ -683,6 +743,7 @@ mod tests {
         let records = read_contact_history(&path).unwrap();
         assert_eq!(records.len(), 4);
         assert_eq!(records[3].status, 2);
+        assert_eq!(records[3].accumulated_slip, 0.05);
         assert_eq!(pressure_steps(&records, &[1, 9]), vec![1, 2]);
         let error = truncate_contact_history(&path, 3, 2)
             .unwrap_err()

@@ -24,7 +24,19 @@
 //! every = 1                # save every N-th step (and the last one)
 //! dir = "results/NAME"     # default results/<name>, name = file stem unless `name` is given
 //! pictures = [2.5, 5.0]    # times of the damage pictures (SVG), default [T/2, T]
+//! [solver]                 # all optional; the defaults are shown
+//! velocity_tolerance = 1e-10      # relative KKT residual of the velocity step (5.1)
+//! max_newton = 50                 # (proximal) Newton iterations of (5.1), nonlinear 𝒜
+//! friction_tolerance = 1e-12      # condensed friction problems
+//! friction_max_newton = 100
+//! friction_max_gradient = 20000
+//! damage_tolerance = 1e-12        # scaled KKT residual of the damage step (5.2)
+//! damage_max_iterations = 100
 //! ```
+//!
+//! Tolerances must lie in (0, 1e-6]: a looser solve would compete with the discretization
+//! error. Raising an iteration limit and `--resume` is the way out of a step that did not
+//! converge.
 //!
 //! Box sides not listed are traction sides (Γ2). The traction may use the outward normal
 //! (nx, ny, nz) to act on part of Γ2 only, e.g. `max(0, ny)` selects the top of a box.
@@ -33,7 +45,8 @@
 use contact_damage::gmsh::{read_msh, GroupRef, PhysicalMap};
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::{Data, Model, Problem, SchemeSettings};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -79,6 +92,9 @@ pub struct ProblemFile {
     /// What to save.
     #[serde(default)]
     pub output: OutputFile,
+    /// Tolerances and iteration limits of the solvers.
+    #[serde(default)]
+    pub solver: SolverFile,
 }
 
 /// `[mesh]`: exactly one of `box` and `gmsh`.
@@ -136,7 +152,7 @@ pub struct GmshFile {
 }
 
 /// `[loads]`: expressions; missing entries are zero (β0 = 1, g = 0).
-#[derive(Debug, Clone, Default, Deserialize)]
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct LoadsFile {
     /// f0 components in x, y, z, t.
@@ -172,6 +188,99 @@ pub struct OutputFile {
     pub pictures: Option<Vec<f64>>,
 }
 
+/// `[solver]`: tolerances and iteration limits; missing entries keep the solver's defaults
+/// ([`SchemeSettings::default`]).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverFile {
+    /// Relative KKT residual at which the velocity step (5.1) stops (default 1e-10).
+    pub velocity_tolerance: Option<f64>,
+    /// Largest number of (proximal) Newton iterations of the velocity step (default 50).
+    pub max_newton: Option<usize>,
+    /// Relative KKT residual of the condensed friction problems (default 1e-12).
+    pub friction_tolerance: Option<f64>,
+    /// Largest number of semismooth Newton systems of a friction problem (default 100).
+    pub friction_max_newton: Option<usize>,
+    /// Largest number of proximal-gradient steps of a friction problem (default 20000).
+    pub friction_max_gradient: Option<usize>,
+    /// Scaled KKT residual at which the damage step (5.2) stops (default 1e-12).
+    pub damage_tolerance: Option<f64>,
+    /// Largest number of active-set and projected Newton steps of the damage step (default 100).
+    pub damage_max_iterations: Option<usize>,
+}
+
+/// Largest tolerance accepted in `[solver]`: every variational inequality is solved to a
+/// residual far below the discretization error, which no mesh of a simulation brings near 1e-6.
+pub const LOOSEST_TOLERANCE: f64 = 1e-6;
+
+impl SolverFile {
+    /// The solver settings: the defaults with the entries of the file, each checked.
+    pub fn settings(&self, origin: &str) -> Result<SchemeSettings, VerifyError> {
+        let mut settings = SchemeSettings::default();
+        let tolerance = |key: &str, value: Option<f64>, target: &mut f64| {
+            if let Some(value) = value {
+                if !(value > 0.0 && value <= LOOSEST_TOLERANCE) {
+                    return Err(problem_error(
+                        origin,
+                        &format!("solver.{key}"),
+                        format!(
+                            "must lie in (0, {LOOSEST_TOLERANCE:e}] so that the solve stays far below the discretization error, got {value}"
+                        ),
+                    ));
+                }
+                *target = value;
+            }
+            Ok(())
+        };
+        let limit = |key: &str, value: Option<usize>, target: &mut usize| {
+            if let Some(value) = value {
+                if value == 0 {
+                    return Err(problem_error(
+                        origin,
+                        &format!("solver.{key}"),
+                        "must be at least 1",
+                    ));
+                }
+                *target = value;
+            }
+            Ok(())
+        };
+        let velocity = &mut settings.velocity;
+        tolerance(
+            "velocity_tolerance",
+            self.velocity_tolerance,
+            &mut velocity.tolerance,
+        )?;
+        limit("max_newton", self.max_newton, &mut velocity.max_newton)?;
+        tolerance(
+            "friction_tolerance",
+            self.friction_tolerance,
+            &mut velocity.friction.tolerance,
+        )?;
+        limit(
+            "friction_max_newton",
+            self.friction_max_newton,
+            &mut velocity.friction.max_newton,
+        )?;
+        limit(
+            "friction_max_gradient",
+            self.friction_max_gradient,
+            &mut velocity.friction.max_gradient,
+        )?;
+        tolerance(
+            "damage_tolerance",
+            self.damage_tolerance,
+            &mut settings.damage.tolerance,
+        )?;
+        limit(
+            "damage_max_iterations",
+            self.damage_max_iterations,
+            &mut settings.damage.max_iterations,
+        )?;
+        Ok(settings)
+    }
+}
+
 fn one() -> usize {
     1
 }
@@ -202,6 +311,46 @@ pub struct ProblemSetup<const D: usize> {
     pub output_dir: PathBuf,
     /// Times of the damage pictures, each in (0, T].
     pub pictures: Vec<f64>,
+    /// What a saved state must match to be resumed with this problem: `constants`, `laws`,
+    /// `loads` (as canonical JSON) and `mesh` (SHA-256 of the vertices, cells and boundary
+    /// parts of the built mesh, so that a changed Gmsh file is caught too). `dim`, `degree`,
+    /// `final_time` and `steps` are checked on their own; `output` and `solver` may change
+    /// between a run and its resumption.
+    pub fingerprint: BTreeMap<String, String>,
+}
+
+/// SHA-256 (hex) of the vertex coordinates, cells and boundary facets with their parts.
+pub fn mesh_fingerprint<const D: usize>(mesh: &Mesh<D>) -> String {
+    let mut hasher = Sha256::new();
+    hasher.update((D as u64).to_le_bytes());
+    hasher.update((mesh.num_vertices() as u64).to_le_bytes());
+    for vertex in mesh.vertices() {
+        for coordinate in vertex {
+            hasher.update(coordinate.to_bits().to_le_bytes());
+        }
+    }
+    hasher.update((mesh.num_cells() as u64).to_le_bytes());
+    for c in 0..mesh.num_cells() {
+        for &v in mesh.cell(c) {
+            hasher.update((v as u64).to_le_bytes());
+        }
+    }
+    hasher.update((mesh.num_facets() as u64).to_le_bytes());
+    for f in 0..mesh.num_facets() {
+        for &v in mesh.facet(f) {
+            hasher.update((v as u64).to_le_bytes());
+        }
+        hasher.update([match mesh.facet_part(f) {
+            BoundaryPart::Dirichlet => 1u8,
+            BoundaryPart::Neumann => 2,
+            BoundaryPart::Contact => 3,
+        }]);
+    }
+    hasher
+        .finalize()
+        .iter()
+        .map(|byte| format!("{byte:02x}"))
+        .collect()
 }
 
 fn problem_error(origin: &str, key: &str, message: impl Into<String>) -> VerifyError {
@@ -351,6 +500,25 @@ impl<const D: usize> ProblemSetup<D> {
             ));
         }
         let mesh = Self::mesh(&file, path, origin)?;
+        let settings = file.solver.settings(origin)?;
+        let canonical = |value: Result<String, serde_json::Error>| {
+            value.unwrap_or_else(|e| unreachable!("plain data serializes to JSON: {e}"))
+        };
+        let fingerprint = BTreeMap::from([
+            (
+                "constants".to_string(),
+                canonical(serde_json::to_string(&file.constants)),
+            ),
+            (
+                "laws".to_string(),
+                canonical(serde_json::to_string(&file.laws)),
+            ),
+            (
+                "loads".to_string(),
+                canonical(serde_json::to_string(&file.loads)),
+            ),
+            ("mesh".to_string(), mesh_fingerprint(&mesh)),
+        ]);
         let constants = &file.constants;
         let laws = file.laws.build::<D>(origin, constants)?;
 
@@ -461,7 +629,7 @@ impl<const D: usize> ProblemSetup<D> {
             },
             final_time: file.final_time,
             steps: file.steps,
-            settings: SchemeSettings::default(),
+            settings,
         };
         let output_dir = match &file.output.dir {
             Some(dir) => PathBuf::from(dir),
@@ -474,6 +642,7 @@ impl<const D: usize> ProblemSetup<D> {
             every: file.output.every,
             output_dir,
             pictures,
+            fingerprint,
             file,
         })
     }

@@ -14,9 +14,16 @@
 //!   row per step and contact node of the line drawn, appended like `history.csv`) and
 //!   `contact_history.svg`, drawn from it at the end of every run: see [`crate::pictures`].
 //!
-//! A crash or Ctrl-C therefore leaves every completed saved step on disk; resuming truncates
+//! A crash therefore leaves every completed saved step on disk; resuming truncates
 //! `history.csv` to the resumed step and continues bitwise as the uninterrupted run would.
+//! An interruption through [`RunOptions::interrupt`] (Ctrl-C in `simulate`) ends the run
+//! after the step in progress and saves that step, so nothing computed is lost. `--resume`
+//! refuses a state whose problem changed since ([`ProblemSetup::fingerprint`]).
 
+use crate::history::{
+    contact_integrals, damage_integrals, tangential_speed, truncate_history, viscous_power,
+    ContactStep, HistoryRow, RunningSums, HISTORY_FILE, HISTORY_HEADER,
+};
 use crate::pictures::{
     contact_history_svg, damage_picture_file, damage_svg, picture_steps, pressure_steps,
     read_contact_history, truncate_contact_history, ContactLine, CONTACT_HISTORY_FILE,
@@ -31,19 +38,18 @@ use contact_damage::scheme::{Simulation, State};
 use contact_damage::space::{strain, LagrangeSpace, Tabulation};
 use contact_damage::vtk::{write_boundary_vtu, write_pvd, write_vtu, CellData, PointData};
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::fs::OpenOptions;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 use std::time::Instant;
 use verify::output::{write_atomic, write_json_atomic};
 use verify::VerifyError;
 
 /// Name of the restart file.
 pub const STATE_FILE: &str = "state.json";
-/// Name of the time history.
-pub const HISTORY_FILE: &str = "history.csv";
-/// Header of the time history.
-pub const HISTORY_HEADER: &str = "step,t,normal_force,stick,slip,separated,mean_damage,area_damage_below_half,velocity_kkt,damage_kkt,newton_iterations,friction_iterations,damage_iterations";
 
 /// Command-line options of a run.
 #[derive(Debug, Clone, Default)]
@@ -58,6 +64,9 @@ pub struct RunOptions {
     pub until_step: Option<usize>,
     /// No progress lines.
     pub quiet: bool,
+    /// Set from outside (the Ctrl-C handler of `simulate`) to stop the run after the step in
+    /// progress: that step is saved like a saved step, so `--resume` continues from it.
+    pub interrupt: Option<Arc<AtomicBool>>,
 }
 
 /// What a run did.
@@ -75,6 +84,8 @@ pub struct RunOutcome {
     pub max_kkt: [f64; 2],
     /// Wall time of the time loop in seconds.
     pub seconds: f64,
+    /// The run stopped early because [`RunOptions::interrupt`] was set.
+    pub interrupted: bool,
 }
 
 /// The restart file: the state after a saved step and what it belongs to.
@@ -105,58 +116,14 @@ pub struct SavedState {
     pub velocity: Vec<f64>,
     /// β_n.
     pub damage: Vec<f64>,
-}
-
-/// Integral quantities of one step (a row of `history.csv`).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HistoryRow {
-    /// n.
-    pub step: usize,
-    /// t_n.
-    pub time: f64,
-    /// Σ_a ω_a p_ν(a): total normal contact force.
-    pub normal_force: f64,
-    /// Contact nodes sticking.
-    pub stick: usize,
-    /// Contact nodes slipping.
-    pub slip: usize,
-    /// Contact nodes separated.
-    pub separated: usize,
-    /// ∫_Ω β_n / |Ω|.
-    pub mean_damage: f64,
-    /// |{β_n < 1/2}| by quadrature of the indicator (rule of degree 2l).
-    pub area_damage_below_half: f64,
-    /// KKT residual of the velocity step.
-    pub velocity_kkt: f64,
-    /// KKT residual of the damage step.
-    pub damage_kkt: f64,
-    /// Newton iterations of the velocity step.
-    pub newton_iterations: usize,
-    /// Semismooth Newton iterations of the friction problems.
-    pub friction_iterations: usize,
-    /// Active-set iterations of the damage step.
-    pub damage_iterations: usize,
-}
-
-impl HistoryRow {
-    fn csv_line(&self) -> String {
-        format!(
-            "{},{},{},{},{},{},{},{},{:e},{:e},{},{},{}\n",
-            self.step,
-            self.time,
-            self.normal_force,
-            self.stick,
-            self.slip,
-            self.separated,
-            self.mean_damage,
-            self.area_damage_below_half,
-            self.velocity_kkt,
-            self.damage_kkt,
-            self.newton_iterations,
-            self.friction_iterations,
-            self.damage_iterations
-        )
-    }
+    /// Σ_{m ≤ n} k |v_{m,τ}(a)| per contact node (see [`crate::history`]).
+    pub accumulated_slip: Vec<f64>,
+    /// Σ_{m ≤ n} k j(u_{m−1}, v_m).
+    pub friction_dissipation: f64,
+    /// Σ_{m ≤ n} k ∫_Ω 𝒜ε(v_m)·ε(v_m).
+    pub viscous_dissipation: f64,
+    /// [`ProblemSetup::fingerprint`] of the problem that was run.
+    pub fingerprint: BTreeMap<String, String>,
 }
 
 /// File name of the domain VTU of step n.
@@ -196,31 +163,6 @@ pub fn cell_stress<const D: usize>(
     stress
 }
 
-/// ∫_Ω β / |Ω| and |{β < 1/2}|, both by a rule of degree 2l.
-fn damage_integrals<const D: usize>(
-    space: &LagrangeSpace<D>,
-    tabulation: &Tabulation<D>,
-    damage: &[f64],
-) -> (f64, f64) {
-    let (mut volume, mut integral, mut weak_area) = (0.0, 0.0, 0.0);
-    let n = tabulation.nodes;
-    for c in 0..space.mesh().num_cells() {
-        let det = space.geometry(c).det.abs();
-        let nodes = space.cell_nodes(c);
-        for q in 0..tabulation.len() {
-            let values = &tabulation.values[q * n..(q + 1) * n];
-            let beta: f64 = nodes.iter().zip(values).map(|(&a, v)| damage[a] * v).sum();
-            let weight = tabulation.weights[q] * det;
-            volume += weight;
-            integral += weight * beta;
-            if beta < 0.5 {
-                weak_area += weight;
-            }
-        }
-    }
-    (integral / volume, weak_area)
-}
-
 fn io_error(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> VerifyError {
     let path = path.to_path_buf();
     move |e| VerifyError::io(action, path, e)
@@ -255,6 +197,7 @@ pub fn run<const D: usize>(
     let invalid = |message: String| VerifyError::InvalidInput(message);
 
     let mut saved_steps = Vec::new();
+    let mut sums = RunningSums::new(contact.len());
     if options.resume {
         let saved = read_saved_state(&dir)?;
         let mismatch = |what: &str, saved_value: String, problem_value: String| {
@@ -302,6 +245,22 @@ pub fn run<const D: usize>(
                 saved.step
             )));
         }
+        for (key, value) in &setup.fingerprint {
+            if saved.fingerprint.get(key) != Some(value) {
+                return Err(invalid(format!(
+                    "{} does not belong to {}: `{key}` changed since the saved run (resume needs the same constants, laws, loads and mesh; start afresh with --overwrite)",
+                    state_path.display(),
+                    setup.origin
+                )));
+            }
+        }
+        if saved.accumulated_slip.len() != contact.len() {
+            return Err(mismatch(
+                "the number of contact nodes",
+                saved.accumulated_slip.len().to_string(),
+                contact.len().to_string(),
+            ));
+        }
         let expected_time = saved.step as f64 * simulation.time_step();
         if saved.time.to_bits() != expected_time.to_bits() {
             return Err(mismatch(
@@ -311,6 +270,11 @@ pub fn run<const D: usize>(
             ));
         }
         saved_steps = saved.saved_steps.clone();
+        sums = RunningSums {
+            accumulated_slip: saved.accumulated_slip,
+            friction_dissipation: saved.friction_dissipation,
+            viscous_dissipation: saved.viscous_dissipation,
+        };
         simulation.set_state(State {
             step: saved.step,
             time: saved.time,
@@ -356,6 +320,7 @@ pub fn run<const D: usize>(
     let last_step = options.until_step.unwrap_or(steps).min(steps);
     let clock = Instant::now();
     let mut max_kkt = [0.0f64; 2];
+    let mut interrupted = false;
     if !options.quiet {
         println!(
             "{}: d = {D}, l = {}, {} cells, {} nodes, {} contact nodes, N = {steps}, k = {:e}{}",
@@ -378,21 +343,37 @@ pub fn run<const D: usize>(
         let n = state.step;
         max_kkt[0] = max_kkt[0].max(velocity.stats.kkt_residual);
         max_kkt[1] = max_kkt[1].max(damage.stats.kkt_residual);
-        let count = |s: ContactStatus| velocity.status.iter().filter(|&&x| x == s).count();
         let (mean_damage, area_damage_below_half) =
             damage_integrals(&space, &tabulation, &state.damage);
+        let speed = tangential_speed(&contact, &state.velocity);
+        let on_contact = contact_integrals(
+            &contact,
+            &ContactStep {
+                status: &velocity.status,
+                normal_pressure: &normal_pressure,
+                friction_bound: &friction_bound,
+            },
+            &speed,
+            simulation.time_step(),
+            &mut sums,
+        );
+        let viscous_power = viscous_power(setup, &space, &tabulation, &state.velocity);
+        sums.viscous_dissipation += simulation.time_step() * viscous_power;
         let row = HistoryRow {
             step: n,
             time: state.time,
-            normal_force: contact
-                .weights
-                .iter()
-                .zip(&normal_pressure)
-                .map(|(w, p)| w * p)
-                .sum(),
-            stick: count(ContactStatus::Stick),
-            slip: count(ContactStatus::Slip),
-            separated: count(ContactStatus::Separated),
+            normal_force: on_contact.normal_force,
+            contact_zone: on_contact.contact_zone,
+            slip_zone: on_contact.slip_zone,
+            separated: on_contact.counts[0],
+            stick: on_contact.counts[1],
+            slip: on_contact.counts[2],
+            slip_rate: on_contact.slip_rate,
+            max_accumulated_slip: sums.accumulated_slip.iter().fold(0.0, |a, &b| a.max(b)),
+            friction_power: on_contact.friction_power,
+            friction_dissipation: sums.friction_dissipation,
+            viscous_power,
+            viscous_dissipation: sums.viscous_dissipation,
             mean_damage,
             area_damage_below_half,
             velocity_kkt: velocity.stats.kkt_residual,
@@ -408,7 +389,14 @@ pub fn run<const D: usize>(
         contact_history
             .write_all(
                 contact_line
-                    .csv_rows(n, state.time, &velocity.status, &normal_pressure)
+                    .csv_rows(
+                        n,
+                        state.time,
+                        &velocity.status,
+                        &normal_pressure,
+                        &speed,
+                        &sums.accumulated_slip,
+                    )
                     .as_bytes(),
             )
             .and_then(|()| contact_history.flush())
@@ -423,7 +411,11 @@ pub fn run<const D: usize>(
             )?;
         }
 
-        if n % setup.every == 0 || n == steps || n == last_step {
+        interrupted = options
+            .interrupt
+            .as_ref()
+            .is_some_and(|flag| flag.load(Ordering::SeqCst));
+        if n % setup.every == 0 || n == steps || n == last_step || interrupted {
             // Γ3 fields on all space nodes (zero off the contact nodes)
             let nodes = space.num_nodes();
             let mut status = vec![0.0; nodes];
@@ -520,6 +512,10 @@ pub fn run<const D: usize>(
                     displacement: state.displacement.clone(),
                     velocity: state.velocity.clone(),
                     damage: state.damage.clone(),
+                    accumulated_slip: sums.accumulated_slip.clone(),
+                    friction_dissipation: sums.friction_dissipation,
+                    viscous_dissipation: sums.viscous_dissipation,
+                    fingerprint: setup.fingerprint.clone(),
                 },
             )?;
             if !options.quiet {
@@ -540,6 +536,12 @@ pub fn run<const D: usize>(
                     row.mean_damage,
                 );
             }
+        }
+        if interrupted {
+            if !options.quiet {
+                println!("interrupted: step {n} is saved; continue with --resume",);
+            }
+            break;
         }
     }
     history
@@ -564,37 +566,8 @@ pub fn run<const D: usize>(
         saved_steps,
         max_kkt,
         seconds: clock.elapsed().as_secs_f64(),
+        interrupted,
     })
-}
-
-/// Keeps the header and the rows of steps 1, …, `step` of `history.csv` (rewritten
-/// atomically). Rows after them — steps done after the last saved step, possibly a line cut
-/// short by a crash — are dropped; a missing, reordered or malformed row among them is an error.
-fn truncate_history(path: &Path, step: usize) -> Result<(), VerifyError> {
-    let text = std::fs::read_to_string(path).map_err(io_error("reading", path))?;
-    let mut lines = text.lines();
-    if lines.next() != Some(HISTORY_HEADER) {
-        return Err(VerifyError::InvalidInput(format!(
-            "{}: the first line is not the history header",
-            path.display()
-        )));
-    }
-    let columns = HISTORY_HEADER.split(',').count();
-    let mut kept = format!("{HISTORY_HEADER}\n");
-    for expected in 1..=step {
-        let line = lines.next().unwrap_or("");
-        let fields: Vec<&str> = line.split(',').collect();
-        if fields.len() != columns || fields[0] != expected.to_string() {
-            return Err(VerifyError::InvalidInput(format!(
-                "{}:{}: expected the complete row of step {expected}, found `{line}`",
-                path.display(),
-                expected + 1
-            )));
-        }
-        kept.push_str(line);
-        kept.push('\n');
-    }
-    write_atomic(path, kept.as_bytes())
 }
 
 /// Removes the files of an earlier run in `dir` (only the names this program writes).
@@ -640,23 +613,6 @@ mod tests {
     }
 
     #[test]
-    fn damage_integrals_are_exact_for_linear_fields() {
-        for degree in [1, 2] {
-            let space = unit_square_space(degree);
-            let tabulation =
-                Tabulation::cell_rule(space.element(), &QuadratureRule::<2>::simplex(2 * degree));
-            // β = 0.2 + 0.3 x + 0.1 y on (0, 1) × (0, 2): mean 0.2 + 0.15 + 0.1
-            let damage = space.interpolate_scalar(|x| 0.2 + 0.3 * x[0] + 0.1 * x[1]);
-            let (mean, weak) = damage_integrals(&space, &tabulation, &damage);
-            assert!((mean - 0.45).abs() < 1e-14, "{mean}");
-            assert!(weak > 0.0 && weak < 2.0, "{weak}");
-            let (_, all) = damage_integrals(&space, &tabulation, &vec![0.3; damage.len()]);
-            let (_, none) = damage_integrals(&space, &tabulation, &vec![0.7; damage.len()]);
-            assert!((all - 2.0).abs() < 1e-14 && none == 0.0);
-        }
-    }
-
-    #[test]
     fn cell_stress_is_viscous_plus_damaged_elastic_stress() {
         let text = r#"
             dim = 2
@@ -697,35 +653,5 @@ mod tests {
                 }
             }
         }
-    }
-
-    #[test]
-    fn history_is_truncated_to_the_saved_step() {
-        let dir = std::env::temp_dir().join(format!("simulate-history-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join(HISTORY_FILE);
-        let row = |n: usize| format!("{n},0.1,0,0,0,1,1,0,0e0,0e0,1,1,1\n");
-        // rows 1..3 complete, then a row cut short by a crash
-        let text = format!("{HISTORY_HEADER}\n{}{}{}4,0.4,0", row(1), row(2), row(3));
-        std::fs::write(&path, &text).unwrap();
-        truncate_history(&path, 3).unwrap();
-        assert_eq!(
-            std::fs::read_to_string(&path).unwrap(),
-            format!("{HISTORY_HEADER}\n{}{}{}", row(1), row(2), row(3))
-        );
-        truncate_history(&path, 1).unwrap();
-        assert_eq!(
-            std::fs::read_to_string(&path).unwrap(),
-            format!("{HISTORY_HEADER}\n{}", row(1))
-        );
-        // a missing row is an error naming the line
-        let error = truncate_history(&path, 2).unwrap_err().to_string();
-        assert!(
-            error.contains(":3: expected the complete row of step 2"),
-            "{error}"
-        );
-        std::fs::write(&path, "step,t\n").unwrap();
-        assert!(truncate_history(&path, 0).is_err());
-        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

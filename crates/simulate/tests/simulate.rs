@@ -1,6 +1,8 @@
 //! End-to-end tests of `simulate`: the 2D example at a tiny size writes VTU/PVD files that an
-//! XML parser reads back with the right sizes and fields; an interrupted and resumed run gives
-//! bitwise the same result as an uninterrupted one; bad problem files name the key.
+//! XML parser reads back with the right sizes and fields, and a history whose integral columns
+//! agree with each other; an interrupted (by `--until-step`, by the interrupt flag, by SIGINT
+//! to the binary) and resumed run gives bitwise the same result as an uninterrupted one; a
+//! changed problem is not resumed; bad problem files name the key.
 
 use simulate::problem::ProblemSetup;
 use simulate::run::{read_saved_state, RunOptions};
@@ -153,20 +155,47 @@ fn output_is_read_back_with_fields_sizes_and_contact_status() {
     }
     assert!(touched, "no contact node is ever in contact");
 
-    // one history row per step, the step column counting up
+    // one history row per step, the step column counting up, the columns consistent
     let history = std::fs::read_to_string(out.join("history.csv")).unwrap();
     let rows: Vec<&str> = history.lines().collect();
     assert_eq!(rows.len(), 13);
-    assert!(rows[0].starts_with("step,t,normal_force,stick,slip,separated,mean_damage"));
-    for (n, row) in rows[1..].iter().enumerate() {
-        let fields: Vec<&str> = row.split(',').collect();
-        assert_eq!(fields[0], (n + 1).to_string());
-        let counts: usize = fields[3..6]
+    let header: Vec<&str> = rows[0].split(',').collect();
+    let column = |name: &str| {
+        header
             .iter()
-            .map(|c| c.parse::<usize>().unwrap())
-            .sum();
-        assert_eq!(counts, 8, "stick + slip + separated = contact nodes");
+            .position(|h| *h == name)
+            .unwrap_or_else(|| panic!("no column {name}"))
+    };
+    let value = |row: &str, name: &str| -> f64 {
+        row.split(',').nth(column(name)).unwrap().parse().unwrap()
+    };
+    let time_step = 0.05;
+    // Γ3 is the bottom side (0, 2) × {0} minus its clamped end: the contact weights sum to 2
+    let (mut friction_energy, mut viscous_energy, mut slipped) = (0.0, 0.0, 0.0f64);
+    let mut max_slip_zone = 0.0f64;
+    for (n, row) in rows[1..].iter().enumerate() {
+        assert_eq!(row.split(',').count(), header.len());
+        assert_eq!(value(row, "step"), (n + 1) as f64);
+        let counts = value(row, "stick") + value(row, "slip") + value(row, "separated");
+        assert_eq!(counts, 8.0, "stick + slip + separated = contact nodes");
+        let (contact_zone, slip_zone) = (value(row, "contact_zone"), value(row, "slip_zone"));
+        assert!(0.0 <= slip_zone && slip_zone <= contact_zone && contact_zone <= 2.0 + 1e-12);
+        assert_eq!(contact_zone == 0.0, value(row, "separated") == 8.0);
+        max_slip_zone = max_slip_zone.max(slip_zone);
+        // the running sums add k × the rates
+        assert!(value(row, "friction_power") >= 0.0 && value(row, "viscous_power") >= 0.0);
+        friction_energy += time_step * value(row, "friction_power");
+        viscous_energy += time_step * value(row, "viscous_power");
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * (1.0 + b.abs());
+        assert!(close(value(row, "friction_dissipation"), friction_energy));
+        assert!(close(value(row, "viscous_dissipation"), viscous_energy));
+        // slip accumulates
+        let max_slip = value(row, "max_accumulated_slip");
+        assert!(max_slip >= slipped);
+        slipped = max_slip;
     }
+    assert!(viscous_energy > 0.0, "the body never moved");
+    assert!(max_slip_zone > 0.0 && slipped > 0.0, "nothing ever slipped");
 }
 
 #[test]
@@ -189,10 +218,11 @@ fn resumed_run_equals_uninterrupted_run_bitwise() {
     assert_eq!(read_saved_state(&split).unwrap().step, 5);
     // a crash after step 6 leaves a history row beyond the saved state: resuming drops it
     let mut history = std::fs::read_to_string(split.join("history.csv")).unwrap();
-    history.push_str("6,0.3,0,0,0,8,1,0,0e0,0e0,1,1,1\n");
+    let columns = simulate::history::HISTORY_HEADER.split(',').count();
+    history.push_str(&format!("6,0.3{}\n", ",0".repeat(columns - 2)));
     std::fs::write(split.join("history.csv"), history).unwrap();
     let mut contact_history = std::fs::read_to_string(split.join("contact_history.csv")).unwrap();
-    contact_history.push_str("6,0.3,0.25,1,0.5\n6,0.3,0.5,");
+    contact_history.push_str("6,0.3,0.25,1,0.5,0,0\n6,0.3,0.5,");
     std::fs::write(split.join("contact_history.csv"), contact_history).unwrap();
 
     let second = simulate::run_file(
@@ -216,6 +246,7 @@ fn resumed_run_equals_uninterrupted_run_bitwise() {
     assert_eq!(bits(&a.displacement), bits(&b.displacement));
     assert_eq!(bits(&a.velocity), bits(&b.velocity));
     assert_eq!(bits(&a.damage), bits(&b.damage));
+    assert_eq!(bits(&a.accumulated_slip), bits(&b.accumulated_slip));
     for file in [
         "history.csv",
         "solution_000012.vtu",
@@ -296,6 +327,186 @@ fn resume_and_restart_refuse_mismatches() {
     .unwrap();
     assert_eq!(outcome.saved_steps, vec![2]);
     assert!(!out.join("solution_000004.vtu").exists());
+
+    // changed loads, laws, constants or mesh: the saved state belongs to another problem
+    for (from, to, key) in [
+        ("pressure = 1.2", "pressure = 1.3", "`constants`"),
+        ("friction = 0.4", "friction = 0.5", "`laws`"),
+        ("gap = \"0.02*x\"", "gap = \"0.03*x\"", "`loads`"),
+        ("upper = [2.0, 1.0]", "upper = [2.0, 1.1]", "`mesh`"),
+    ] {
+        let text = std::fs::read_to_string(&other).unwrap();
+        assert!(text.contains(from), "{from}");
+        let changed = dir.join("changed.toml");
+        std::fs::write(&changed, text.replace(from, to)).unwrap();
+        let error = simulate::run_file(
+            &changed,
+            &RunOptions {
+                resume: true,
+                ..quiet(&out)
+            },
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            error.contains(&format!("{key} changed since the saved run")),
+            "{to}: {error}"
+        );
+    }
+    // solver settings and output may change: resuming with a larger iteration limit works
+    let text = std::fs::read_to_string(&other).unwrap() + "\n[solver]\nmax_newton = 80\n";
+    let relaxed = dir.join("relaxed.toml");
+    std::fs::write(&relaxed, text).unwrap();
+    let outcome = simulate::run_file(
+        &relaxed,
+        &RunOptions {
+            resume: true,
+            until_step: Some(3),
+            ..quiet(&out)
+        },
+    )
+    .unwrap();
+    assert_eq!((outcome.started_from, outcome.last_step), (2, 3));
+}
+
+#[test]
+fn interrupt_flag_saves_the_step_in_progress_and_resume_continues_bitwise() {
+    use std::sync::atomic::AtomicBool;
+    use std::sync::Arc;
+    let dir = scratch("interrupt");
+    let problem = tiny_example(&dir);
+    let whole = dir.join("whole");
+    let split = dir.join("split");
+    simulate::run_file(&problem, &quiet(&whole)).unwrap();
+    // the flag is already set: the run stops after step 1, which is not a step of the
+    // output cadence (every 4) but is saved all the same
+    let outcome = simulate::run_file(
+        &problem,
+        &RunOptions {
+            interrupt: Some(Arc::new(AtomicBool::new(true))),
+            ..quiet(&split)
+        },
+    )
+    .unwrap();
+    assert!(outcome.interrupted);
+    assert_eq!(
+        (outcome.last_step, outcome.saved_steps.clone()),
+        (1, vec![1])
+    );
+    assert_eq!(read_saved_state(&split).unwrap().step, 1);
+    assert!(split.join("solution_000001.vtu").exists());
+    let outcome = simulate::run_file(
+        &problem,
+        &RunOptions {
+            resume: true,
+            interrupt: Some(Arc::new(AtomicBool::new(false))),
+            ..quiet(&split)
+        },
+    )
+    .unwrap();
+    assert!(!outcome.interrupted);
+    assert_eq!(outcome.last_step, 12);
+    let (a, b) = (
+        read_saved_state(&whole).unwrap(),
+        read_saved_state(&split).unwrap(),
+    );
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&a.displacement), bits(&b.displacement));
+    assert_eq!(bits(&a.damage), bits(&b.damage));
+    assert_eq!(
+        a.viscous_dissipation.to_bits(),
+        b.viscous_dissipation.to_bits()
+    );
+    assert_eq!(
+        std::fs::read_to_string(whole.join("history.csv")).unwrap(),
+        std::fs::read_to_string(split.join("history.csv")).unwrap()
+    );
+}
+
+/// SIGINT to the `simulate` binary: it finishes and saves the step in progress, exits with
+/// 130, and `--resume` from there agrees bitwise with an uninterrupted run.
+#[cfg(unix)]
+#[test]
+fn ctrl_c_saves_the_step_in_progress_and_exits_130() {
+    use std::process::{Command, Stdio};
+    use std::time::{Duration, Instant};
+    let dir = scratch("sigint");
+    // long enough (20000 steps, ≈ 30 s) not to finish before the signal arrives
+    let text = std::fs::read_to_string(tiny_example(&dir))
+        .unwrap()
+        .replace("steps = 12", "steps = 20000")
+        .replace("final_time = 0.6", "final_time = 1000.0");
+    let problem = dir.join("long.toml");
+    std::fs::write(&problem, text).unwrap();
+    let out = dir.join("out");
+    let child = Command::new(env!("CARGO_BIN_EXE_simulate"))
+        .arg(&problem)
+        .arg("--out")
+        .arg(&out)
+        .arg("--quiet")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    // wait for a few completed steps
+    let started = Instant::now();
+    loop {
+        let rows = std::fs::read_to_string(out.join("history.csv"))
+            .map(|h| h.lines().count())
+            .unwrap_or(0);
+        if rows > 3 {
+            break;
+        }
+        assert!(
+            started.elapsed() < Duration::from_secs(120),
+            "no step done in 120 s"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let output = child.wait_with_output().unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert_eq!(output.status.code(), Some(130), "{stdout}");
+    assert!(stdout.contains("continue with --resume"), "{stdout}");
+    let saved = read_saved_state(&out).unwrap();
+    assert!(saved.step > 3 && saved.step < 20000, "{}", saved.step);
+    // every completed step is in the history, and the last one is the saved state
+    let history = std::fs::read_to_string(out.join("history.csv")).unwrap();
+    assert_eq!(history.lines().count(), saved.step + 1);
+    assert!(out.join(format!("solution_{:06}.vtu", saved.step)).exists());
+
+    let until = saved.step + 2;
+    let resumed = simulate::run_file(
+        &problem,
+        &RunOptions {
+            resume: true,
+            until_step: Some(until),
+            ..quiet(&out)
+        },
+    )
+    .unwrap();
+    assert_eq!(resumed.last_step, until);
+    let whole = dir.join("whole");
+    simulate::run_file(
+        &problem,
+        &RunOptions {
+            until_step: Some(until),
+            ..quiet(&whole)
+        },
+    )
+    .unwrap();
+    let (a, b) = (
+        read_saved_state(&whole).unwrap(),
+        read_saved_state(&out).unwrap(),
+    );
+    let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+    assert_eq!(bits(&a.displacement), bits(&b.displacement));
+    assert_eq!(bits(&a.velocity), bits(&b.velocity));
+    assert_eq!(bits(&a.damage), bits(&b.damage));
 }
 
 /// The error of building the 2D example with `from` replaced by `to`.
@@ -349,6 +560,26 @@ fn bad_problem_files_name_the_key() {
         ("dim = 2", "dim = 3", "key `dim`"),
         ("steps = 250", "steps = 0", "key `steps`"),
         ("degree = 1", "degree = 3", "key `degree`"),
+        (
+            "[output]",
+            "[solver]\nvelocity_tolerance = 1e-4\n[output]",
+            "key `solver.velocity_tolerance`: must lie in (0, 1e-6]",
+        ),
+        (
+            "[output]",
+            "[solver]\ndamage_max_iterations = 0\n[output]",
+            "key `solver.damage_max_iterations`: must be at least 1",
+        ),
+        (
+            "[output]",
+            "[solver]\nfriction_tolerance = -1e-12\n[output]",
+            "key `solver.friction_tolerance`",
+        ),
+        (
+            "[output]",
+            "[solver]\ntolerance = 1e-9\n[output]",
+            "unknown field `tolerance`",
+        ),
     ] {
         let error = error_of(from, to);
         assert!(error.contains("bad.toml"), "{error}");
@@ -416,7 +647,10 @@ fn pictures_show_damage_on_every_cell_and_the_contact_history_with_legends() {
     // 8 contact nodes on y = 0 (the clamped corner is none) in each of the 12 steps
     let csv = read("contact_history.csv");
     let mut lines = csv.lines();
-    assert_eq!(lines.next(), Some("step,t,s,status,normal_pressure"));
+    assert_eq!(
+        lines.next(),
+        Some("step,t,s,status,normal_pressure,slip_rate,accumulated_slip")
+    );
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|f| f.parse().unwrap()).collect())
         .collect();
@@ -434,6 +668,18 @@ fn pictures_show_damage_on_every_cell_and_the_contact_history_with_legends() {
     }
     // the bump presses the body onto the foundation: some node is in contact at some step
     assert!(rows.iter().any(|row| row[3] > 0.0 && row[4] > 0.0));
+    // a sticking node does not slide; the slip accumulates k |v_τ| node by node
+    for (index, row) in rows.iter().enumerate() {
+        if row[3] == 1.0 {
+            assert!(row[5] < 1e-9, "stick with |v_τ| = {}", row[5]);
+        }
+        let before = if index >= 8 { rows[index - 8][6] } else { 0.0 };
+        assert!(
+            (row[6] - (before + 0.05 * row[5])).abs() <= 1e-14 * (1.0 + row[6]),
+            "{row:?}"
+        );
+    }
+    assert!(rows.iter().any(|row| row[3] == 2.0 && row[5] > 0.0));
 
     let svg = read("contact_history.svg");
     assert!(svg.contains("<svg") && svg.contains("<rect") && svg.contains("<polyline"));
@@ -443,10 +689,41 @@ fn pictures_show_damage_on_every_cell_and_the_contact_history_with_legends() {
         "slip",
         "contact status on Γ3 over time",
         "normal pressure p_ν on Γ3",
+        "accumulated slip Σ k |v_τ| on Γ3",
         "t = 0.3000",
         "t = 0.6000",
         "x on Γ3",
     ] {
         assert!(svg.contains(label), "{label} is missing");
     }
+}
+
+#[test]
+fn solver_settings_are_read_from_the_problem_file() {
+    let text = EXAMPLE_2D.replace(
+        "[output]",
+        "[solver]\nvelocity_tolerance = 1e-11\nmax_newton = 7\nfriction_tolerance = 1e-13\nfriction_max_newton = 30\nfriction_max_gradient = 500\ndamage_tolerance = 1e-13\ndamage_max_iterations = 40\n[output]",
+    );
+    let file = verify::case::parse_toml(&text, "solver.toml").unwrap();
+    let setup = ProblemSetup::<2>::new(file, Path::new("solver.toml")).unwrap();
+    let settings = &setup.problem.settings;
+    assert_eq!(settings.velocity.tolerance, 1e-11);
+    assert_eq!(settings.velocity.max_newton, 7);
+    assert_eq!(settings.velocity.friction.tolerance, 1e-13);
+    assert_eq!(settings.velocity.friction.max_newton, 30);
+    assert_eq!(settings.velocity.friction.max_gradient, 500);
+    assert_eq!(settings.damage.tolerance, 1e-13);
+    assert_eq!(settings.damage.max_iterations, 40);
+    // missing entries keep the defaults
+    let file = verify::case::parse_toml(EXAMPLE_2D, "example.toml").unwrap();
+    let setup = ProblemSetup::<2>::new(file, Path::new("example.toml")).unwrap();
+    let defaults = contact_damage::scheme::SchemeSettings::default();
+    assert_eq!(
+        setup.problem.settings.velocity.tolerance,
+        defaults.velocity.tolerance
+    );
+    assert_eq!(
+        setup.problem.settings.damage.max_iterations,
+        defaults.damage.max_iterations
+    );
 }

@@ -13,7 +13,7 @@ use contact_damage::laws::{
 };
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::{Data, Model, Problem, SchemeSettings};
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
@@ -64,7 +64,7 @@ pub struct DomainFile {
 }
 
 /// `[laws]`.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct LawsFile {
     /// 𝒜.
@@ -80,7 +80,7 @@ pub struct LawsFile {
 }
 
 /// Viscosity laws.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ViscosityFile {
     /// 𝒜ε = 2ηε + ζ tr(ε) I.
@@ -95,7 +95,7 @@ pub enum ViscosityFile {
 }
 
 /// Elasticity laws.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum ElasticityFile {
     /// G = β(2με + λ tr(ε) I).
@@ -106,7 +106,7 @@ pub enum ElasticityFile {
 }
 
 /// Damage sources.
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
 pub enum DamageSourceFile {
     /// The truncated Frémond source.
@@ -121,7 +121,7 @@ pub enum DamageSourceFile {
 }
 
 /// Normal compliance with Coulomb friction (2.10)–(2.12).
-#[derive(Debug, Clone, Deserialize)]
+#[derive(Debug, Clone, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct ContactFile {
     /// c_ν.

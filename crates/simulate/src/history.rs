@@ -1,0 +1,464 @@
+//! Integral quantities of a run, one row of `history.csv` per time step.
+//!
+//! With the nodal contact rule of the scheme (ω_a = ∫_Γ3 φ_a, the rule of the friction term
+//! j(u_{n−1}, v) in (5.1)), the Γ3 integrals are sums over the contact nodes a:
+//! - `normal_force` = Σ_a ω_a p_ν(a), with p_ν(a) = p_ν(u_{n−1,ν}(a) − g(a)) as used in step n;
+//! - `contact_zone` = Σ_{a not separated} ω_a and `slip_zone` = Σ_{a slipping} ω_a: measures
+//!   (lengths in 2D, areas in 3D) of the parts of Γ3 in contact and slipping;
+//! - `slip_rate` = Σ_a ω_a |v_{n,τ}(a)| = ∫_Γ3 |v_τ|;
+//! - `max_accumulated_slip` = max_a Σ_{m ≤ n} k |v_{m,τ}(a)|: the longest distance slipped
+//!   by a point of Γ3 so far;
+//! - `friction_power` = Σ_a ω_a p_τ(a) |v_{n,τ}(a)| = j(u_{n−1}, v_n), the frictional
+//!   dissipation rate, and `friction_dissipation` = Σ_{m ≤ n} k j(u_{m−1}, v_m);
+//!
+//! and over Ω, by a quadrature rule of degree 2l:
+//! - `mean_damage` = ∫_Ω β_n / |Ω| and `area_damage_below_half` = |{β_n < 1/2}| (an area in
+//!   2D, a volume in 3D; the rule integrates the indicator);
+//! - `viscous_power` = ∫_Ω 𝒜ε(v_n)·ε(v_n) and `viscous_dissipation` = Σ_{m ≤ n} k ∫_Ω
+//!   𝒜ε(v_m)·ε(v_m).
+//!
+//! The running sums (`friction_dissipation`, `viscous_dissipation`, the accumulated slip of
+//! every contact node) are part of the saved state, so that a resumed run continues them.
+
+use crate::problem::ProblemSetup;
+use contact_damage::contact::{ContactNodes, ContactStatus};
+use contact_damage::space::{strain, LagrangeSpace, Tabulation};
+use nalgebra::SVector;
+use std::path::Path;
+use verify::output::write_atomic;
+use verify::VerifyError;
+
+/// Name of the time history.
+pub const HISTORY_FILE: &str = "history.csv";
+/// Header of the time history (see the module documentation for the columns).
+pub const HISTORY_HEADER: &str = "step,t,normal_force,contact_zone,slip_zone,stick,slip,separated,slip_rate,max_accumulated_slip,friction_power,friction_dissipation,viscous_power,viscous_dissipation,mean_damage,area_damage_below_half,velocity_kkt,damage_kkt,newton_iterations,friction_iterations,damage_iterations";
+
+/// The running sums of a run after step n.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunningSums {
+    /// Σ_{m ≤ n} k |v_{m,τ}(a)| per contact node a.
+    pub accumulated_slip: Vec<f64>,
+    /// Σ_{m ≤ n} k j(u_{m−1}, v_m).
+    pub friction_dissipation: f64,
+    /// Σ_{m ≤ n} k ∫_Ω 𝒜ε(v_m)·ε(v_m).
+    pub viscous_dissipation: f64,
+}
+
+impl RunningSums {
+    /// Zero sums for `contact_nodes` contact nodes (the state before step 1).
+    pub fn new(contact_nodes: usize) -> Self {
+        Self {
+            accumulated_slip: vec![0.0; contact_nodes],
+            ..Self::default()
+        }
+    }
+}
+
+/// Integral quantities of one step (a row of `history.csv`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HistoryRow {
+    /// n.
+    pub step: usize,
+    /// t_n.
+    pub time: f64,
+    /// Σ_a ω_a p_ν(a): total normal contact force.
+    pub normal_force: f64,
+    /// Σ ω_a over the contact nodes in contact (stick or slip).
+    pub contact_zone: f64,
+    /// Σ ω_a over the slipping contact nodes.
+    pub slip_zone: f64,
+    /// Contact nodes sticking.
+    pub stick: usize,
+    /// Contact nodes slipping.
+    pub slip: usize,
+    /// Contact nodes separated.
+    pub separated: usize,
+    /// Σ_a ω_a |v_{n,τ}(a)|.
+    pub slip_rate: f64,
+    /// max_a Σ_{m ≤ n} k |v_{m,τ}(a)|.
+    pub max_accumulated_slip: f64,
+    /// j(u_{n−1}, v_n) = Σ_a ω_a p_τ(a) |v_{n,τ}(a)|.
+    pub friction_power: f64,
+    /// Σ_{m ≤ n} k j(u_{m−1}, v_m).
+    pub friction_dissipation: f64,
+    /// ∫_Ω 𝒜ε(v_n)·ε(v_n).
+    pub viscous_power: f64,
+    /// Σ_{m ≤ n} k ∫_Ω 𝒜ε(v_m)·ε(v_m).
+    pub viscous_dissipation: f64,
+    /// ∫_Ω β_n / |Ω|.
+    pub mean_damage: f64,
+    /// |{β_n < 1/2}|.
+    pub area_damage_below_half: f64,
+    /// KKT residual of the velocity step.
+    pub velocity_kkt: f64,
+    /// KKT residual of the damage step.
+    pub damage_kkt: f64,
+    /// Newton iterations of the velocity step.
+    pub newton_iterations: usize,
+    /// Semismooth Newton iterations of the friction problems.
+    pub friction_iterations: usize,
+    /// Active-set iterations of the damage step.
+    pub damage_iterations: usize,
+}
+
+impl HistoryRow {
+    /// The row as a line of `history.csv` (floats in their shortest round-trip form).
+    pub fn csv_line(&self) -> String {
+        format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:e},{:e},{},{},{}\n",
+            self.step,
+            self.time,
+            self.normal_force,
+            self.contact_zone,
+            self.slip_zone,
+            self.stick,
+            self.slip,
+            self.separated,
+            self.slip_rate,
+            self.max_accumulated_slip,
+            self.friction_power,
+            self.friction_dissipation,
+            self.viscous_power,
+            self.viscous_dissipation,
+            self.mean_damage,
+            self.area_damage_below_half,
+            self.velocity_kkt,
+            self.damage_kkt,
+            self.newton_iterations,
+            self.friction_iterations,
+            self.damage_iterations
+        )
+    }
+}
+
+/// What one step did on Γ3, per contact node, as the solver returned it.
+pub struct ContactStep<'a> {
+    /// Status of every contact node.
+    pub status: &'a [ContactStatus],
+    /// p_ν(a) used in the step.
+    pub normal_pressure: &'a [f64],
+    /// p_τ(a) used in the step.
+    pub friction_bound: &'a [f64],
+}
+
+/// |v_τ(a)| at every contact node: the norm of the tangential components of v_a in the
+/// node's frame.
+pub fn tangential_speed<const D: usize>(contact: &ContactNodes<D>, velocity: &[f64]) -> Vec<f64> {
+    contact
+        .nodes
+        .iter()
+        .zip(&contact.frames)
+        .map(|(&node, frame)| {
+            let v = SVector::<f64, D>::from_column_slice(&velocity[node * D..node * D + D]);
+            let local = frame.transpose() * v;
+            local.rows(1, D - 1).norm()
+        })
+        .collect()
+}
+
+/// The Γ3 columns of a step (normal force, zones, node counts, slip and friction power) and
+/// the update of the accumulated slip and friction dissipation in `sums`.
+pub struct ContactIntegrals {
+    /// Σ ω_a p_ν(a).
+    pub normal_force: f64,
+    /// Σ ω_a over nodes in contact.
+    pub contact_zone: f64,
+    /// Σ ω_a over slipping nodes.
+    pub slip_zone: f64,
+    /// Node counts (separated, stick, slip).
+    pub counts: [usize; 3],
+    /// Σ ω_a |v_τ(a)|.
+    pub slip_rate: f64,
+    /// Σ ω_a p_τ(a) |v_τ(a)|.
+    pub friction_power: f64,
+}
+
+/// Computes the Γ3 integrals of a step with the tangential speeds `speed` and adds k |v_τ(a)|
+/// and k j(u_{n−1}, v_n) to the running sums.
+pub fn contact_integrals<const D: usize>(
+    contact: &ContactNodes<D>,
+    step: &ContactStep<'_>,
+    speed: &[f64],
+    time_step: f64,
+    sums: &mut RunningSums,
+) -> ContactIntegrals {
+    let mut integrals = ContactIntegrals {
+        normal_force: 0.0,
+        contact_zone: 0.0,
+        slip_zone: 0.0,
+        counts: [0; 3],
+        slip_rate: 0.0,
+        friction_power: 0.0,
+    };
+    for (a, &weight) in contact.weights.iter().enumerate() {
+        integrals.normal_force += weight * step.normal_pressure[a];
+        match step.status[a] {
+            ContactStatus::Separated => integrals.counts[0] += 1,
+            ContactStatus::Stick => {
+                integrals.counts[1] += 1;
+                integrals.contact_zone += weight;
+            }
+            ContactStatus::Slip => {
+                integrals.counts[2] += 1;
+                integrals.contact_zone += weight;
+                integrals.slip_zone += weight;
+            }
+        }
+        integrals.slip_rate += weight * speed[a];
+        integrals.friction_power += weight * step.friction_bound[a] * speed[a];
+        sums.accumulated_slip[a] += time_step * speed[a];
+    }
+    sums.friction_dissipation += time_step * integrals.friction_power;
+    integrals
+}
+
+/// ∫_Ω β / |Ω| and |{β < 1/2}|, both by the rule of `tabulation`.
+pub fn damage_integrals<const D: usize>(
+    space: &LagrangeSpace<D>,
+    tabulation: &Tabulation<D>,
+    damage: &[f64],
+) -> (f64, f64) {
+    let (mut volume, mut integral, mut weak_area) = (0.0, 0.0, 0.0);
+    let n = tabulation.nodes;
+    for c in 0..space.mesh().num_cells() {
+        let det = space.geometry(c).det.abs();
+        let nodes = space.cell_nodes(c);
+        for q in 0..tabulation.len() {
+            let values = &tabulation.values[q * n..(q + 1) * n];
+            let beta: f64 = nodes.iter().zip(values).map(|(&a, v)| damage[a] * v).sum();
+            let weight = tabulation.weights[q] * det;
+            volume += weight;
+            integral += weight * beta;
+            if beta < 0.5 {
+                weak_area += weight;
+            }
+        }
+    }
+    (integral / volume, weak_area)
+}
+
+/// ∫_Ω 𝒜ε(v)·ε(v) by the rule of `tabulation` (exact for a linear 𝒜 when the rule has
+/// degree ≥ 2(l − 1)).
+pub fn viscous_power<const D: usize>(
+    setup: &ProblemSetup<D>,
+    space: &LagrangeSpace<D>,
+    tabulation: &Tabulation<D>,
+    velocity: &[f64],
+) -> f64 {
+    let viscosity = &setup.problem.model.viscosity;
+    let mut power = 0.0;
+    for c in 0..space.mesh().num_cells() {
+        let det = space.geometry(c).det.abs();
+        for (point, weight) in tabulation.points.iter().zip(&tabulation.weights) {
+            let (_, gradient) = space.eval_vector(c, point, velocity);
+            let rate = strain(&gradient);
+            power += weight * det * viscosity.stress(&rate).dot(&rate);
+        }
+    }
+    power
+}
+
+/// Keeps the header and the rows of steps 1, …, `step` of `history.csv` (rewritten
+/// atomically). Rows after them — steps done after the last saved step, possibly a line cut
+/// short by a crash — are dropped; a missing, reordered or malformed row among them is an error.
+pub fn truncate_history(path: &Path, step: usize) -> Result<(), VerifyError> {
+    let text = std::fs::read_to_string(path).map_err(|e| VerifyError::io("reading", path, e))?;
+    let mut lines = text.lines();
+    if lines.next() != Some(HISTORY_HEADER) {
+        return Err(VerifyError::InvalidInput(format!(
+            "{}: the first line is not the history header of this version",
+            path.display()
+        )));
+    }
+    let columns = HISTORY_HEADER.split(',').count();
+    let mut kept = format!("{HISTORY_HEADER}\n");
+    for expected in 1..=step {
+        let line = lines.next().unwrap_or("");
+        let fields: Vec<&str> = line.split(',').collect();
+        if fields.len() != columns || fields[0] != expected.to_string() {
+            return Err(VerifyError::InvalidInput(format!(
+                "{}:{}: expected the complete row of step {expected}, found `{line}`",
+                path.display(),
+                expected + 1
+            )));
+        }
+        kept.push_str(line);
+        kept.push('\n');
+    }
+    write_atomic(path, kept.as_bytes())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use contact_damage::mesh::{BoundaryPart::*, Mesh};
+    use contact_damage::quadrature::QuadratureRule;
+    use std::sync::Arc;
+
+    fn unit_square_space(degree: usize) -> LagrangeSpace<2> {
+        let mesh = Mesh::box_mesh(
+            [0.0, 0.0],
+            [1.0, 2.0],
+            [3, 4],
+            [[Dirichlet, Neumann], [Contact, Neumann]],
+        )
+        .unwrap();
+        LagrangeSpace::new(Arc::new(mesh), degree).unwrap()
+    }
+
+    fn setup() -> ProblemSetup<2> {
+        let text = r#"
+            dim = 2
+            degree = 1
+            final_time = 1.0
+            steps = 1
+            [mesh]
+            box = { lower = [0.0, 0.0], upper = [1.0, 2.0], cells = [3, 4], sides = { x_min = "clamped", y_min = "contact" } }
+            [laws]
+            viscosity = { kind = "linear", shear = 0.5, bulk = 0.25 }
+            elasticity = { kind = "damaged_hooke", shear_modulus = 2.0, lame_lambda = 3.0 }
+            damage_source = { kind = "fremond", lambda_d = 0.1, lambda_w = 0.05, damage_floor = 0.1, strain_energy_cap = 10.0 }
+            contact = { stiffness = 10.0, friction = 0.4 }
+            damage_diffusion = 0.1
+        "#;
+        let file = verify::case::parse_toml(text, "inline").unwrap();
+        ProblemSetup::<2>::new(file, Path::new("inline.toml")).unwrap()
+    }
+
+    #[test]
+    fn damage_integrals_are_exact_for_linear_fields() {
+        for degree in [1, 2] {
+            let space = unit_square_space(degree);
+            let tabulation =
+                Tabulation::cell_rule(space.element(), &QuadratureRule::<2>::simplex(2 * degree));
+            // β = 0.2 + 0.3 x + 0.1 y on (0, 1) × (0, 2): mean 0.2 + 0.15 + 0.1
+            let damage = space.interpolate_scalar(|x| 0.2 + 0.3 * x[0] + 0.1 * x[1]);
+            let (mean, weak) = damage_integrals(&space, &tabulation, &damage);
+            assert!((mean - 0.45).abs() < 1e-14, "{mean}");
+            assert!(weak > 0.0 && weak < 2.0, "{weak}");
+            let (_, all) = damage_integrals(&space, &tabulation, &vec![0.3; damage.len()]);
+            let (_, none) = damage_integrals(&space, &tabulation, &vec![0.7; damage.len()]);
+            assert!((all - 2.0).abs() < 1e-14 && none == 0.0);
+        }
+    }
+
+    #[test]
+    fn viscous_power_is_exact_for_affine_velocities() {
+        let setup = setup();
+        for degree in [1, 2] {
+            let space = unit_square_space(degree);
+            let tabulation =
+                Tabulation::cell_rule(space.element(), &QuadratureRule::<2>::simplex(2 * degree));
+            // ε(v) = [[0, 0.5], [0.5, 0.3]]: 𝒜ε·ε = 2·0.5 ε·ε + 0.25 (tr ε)² = 0.59 + 0.0225
+            let velocity = space.interpolate_vector(|x| [x[1], 0.3 * x[1]]);
+            let power = viscous_power(&setup, &space, &tabulation, &velocity);
+            let expected = (0.59 + 0.0225) * 2.0;
+            assert!((power - expected).abs() < 1e-13, "{power} vs {expected}");
+            // a rigid motion dissipates nothing
+            let rigid = space.interpolate_vector(|x| [0.3 - x[1], 0.1 + x[0]]);
+            assert!(viscous_power(&setup, &space, &tabulation, &rigid).abs() < 1e-13);
+        }
+    }
+
+    #[test]
+    fn contact_integrals_sum_weights_speeds_and_running_sums() {
+        let space = unit_square_space(1);
+        let contact = ContactNodes::new(&space).unwrap();
+        let count = contact.len();
+        assert!(count >= 3);
+        // every contact node slides with v = (0.2, −0.1): |v_τ| = 0.2 on y = 0
+        let mut velocity = vec![0.0; space.num_nodes() * 2];
+        for &node in &contact.nodes {
+            velocity[node * 2] = 0.2;
+            velocity[node * 2 + 1] = -0.1;
+        }
+        let speed = tangential_speed(&contact, &velocity);
+        assert!(speed.iter().all(|s| (s - 0.2).abs() < 1e-15), "{speed:?}");
+        let mut status = vec![ContactStatus::Slip; count];
+        status[0] = ContactStatus::Separated;
+        status[1] = ContactStatus::Stick;
+        let normal_pressure = vec![2.0; count];
+        let friction_bound = vec![0.5; count];
+        let step = ContactStep {
+            status: &status,
+            normal_pressure: &normal_pressure,
+            friction_bound: &friction_bound,
+        };
+        let mut sums = RunningSums::new(count);
+        let total: f64 = contact.weights.iter().sum();
+        let integrals = contact_integrals(&contact, &step, &speed, 0.1, &mut sums);
+        assert!((integrals.normal_force - 2.0 * total).abs() < 1e-14);
+        assert!((integrals.contact_zone - (total - contact.weights[0])).abs() < 1e-14);
+        assert!(
+            (integrals.slip_zone - (total - contact.weights[0] - contact.weights[1])).abs() < 1e-14
+        );
+        assert_eq!(integrals.counts, [1, 1, count - 2]);
+        assert!((integrals.slip_rate - 0.2 * total).abs() < 1e-14);
+        assert!((integrals.friction_power - 0.1 * total).abs() < 1e-14);
+        contact_integrals(&contact, &step, &speed, 0.1, &mut sums);
+        assert!(sums
+            .accumulated_slip
+            .iter()
+            .all(|s| (s - 0.04).abs() < 1e-15));
+        assert!((sums.friction_dissipation - 0.02 * total).abs() < 1e-15);
+    }
+
+    #[test]
+    fn history_is_truncated_to_the_saved_step() {
+        let dir = std::env::temp_dir().join(format!("simulate-history-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(HISTORY_FILE);
+        let row = |n: usize| {
+            HistoryRow {
+                step: n,
+                time: 0.1 * n as f64,
+                normal_force: 0.0,
+                contact_zone: 0.0,
+                slip_zone: 0.0,
+                stick: 0,
+                slip: 0,
+                separated: 1,
+                slip_rate: 0.0,
+                max_accumulated_slip: 0.0,
+                friction_power: 0.0,
+                friction_dissipation: 0.0,
+                viscous_power: 0.5,
+                viscous_dissipation: 0.05 * n as f64,
+                mean_damage: 1.0,
+                area_damage_below_half: 0.0,
+                velocity_kkt: 0.0,
+                damage_kkt: 0.0,
+                newton_iterations: 1,
+                friction_iterations: 1,
+                damage_iterations: 1,
+            }
+            .csv_line()
+        };
+        assert_eq!(
+            row(1).trim_end().split(',').count(),
+            HISTORY_HEADER.split(',').count()
+        );
+        // rows 1..3 complete, then a row cut short by a crash
+        let text = format!("{HISTORY_HEADER}\n{}{}{}4,0.4,0", row(1), row(2), row(3));
+        std::fs::write(&path, &text).unwrap();
+        truncate_history(&path, 3).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            format!("{HISTORY_HEADER}\n{}{}{}", row(1), row(2), row(3))
+        );
+        truncate_history(&path, 1).unwrap();
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            format!("{HISTORY_HEADER}\n{}", row(1))
+        );
+        // a missing row is an error naming the line
+        let error = truncate_history(&path, 2).unwrap_err().to_string();
+        assert!(
+            error.contains(":3: expected the complete row of step 2"),
+            "{error}"
+        );
+        std::fs::write(&path, "step,t\n").unwrap();
+        assert!(truncate_history(&path, 0).is_err());
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
