@@ -5,8 +5,9 @@
 
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::Simulation;
+use simulate::history::HISTORY_FILE;
 use simulate::problem::ProblemSetup;
-use simulate::run::{read_saved_state, RunOptions, HISTORY_FILE};
+use simulate::run::{read_saved_state, RunOptions};
 use std::collections::BTreeSet;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
