@@ -22,8 +22,15 @@ impl Rng {
     }
 }
 
+/// Case files of `verification/` that are not built in (used by examples).
+const OTHER_CASES: [(&str, &str); 1] = [("layer2d", include_str!("../verification/layer2d.toml"))];
+
 fn load<const D: usize>(name: &str) -> Case<D> {
-    let (_, text) = BUILT_IN_CASES.iter().find(|(n, _)| *n == name).unwrap();
+    let (_, text) = BUILT_IN_CASES
+        .iter()
+        .chain(&OTHER_CASES)
+        .find(|(n, _)| *n == name)
+        .unwrap();
     Case::new(parse_case_file(text, name).unwrap(), name).unwrap()
 }
 
@@ -164,6 +171,15 @@ fn zones2d_satisfies_its_strong_form_with_all_zones() {
 }
 
 #[test]
+fn layer2d_satisfies_its_strong_form_with_all_zones() {
+    let zones = check_strong_form::<2>("layer2d");
+    assert!(
+        zones.separation > 0 && zones.stick > 0 && zones.slip > 0 && zones.bound_active > 0,
+        "{zones:?}"
+    );
+}
+
+#[test]
 fn slip3d_satisfies_its_strong_form() {
     let zones = check_strong_form::<3>("slip3d");
     assert!(zones.slip > 0 && zones.stick == 0, "{zones:?}");
@@ -197,7 +213,7 @@ fn error_of(replace: &str, with: &str) -> String {
 fn case_reader_reports_syntax_errors_with_position() {
     let message = error_of("final_time = 1.0", "final_time = = 1.0");
     assert!(
-        message.contains("my_case.toml") && message.contains("line 13, column 14"),
+        message.contains("my_case.toml") && message.contains("line 16, column 14"),
         "{message}"
     );
 }
@@ -225,7 +241,7 @@ fn case_reader_rejects_nonzero_displacement_on_clamped_side() {
 
 #[test]
 fn case_reader_rejects_damage_outside_unit_interval() {
-    let message = error_of("beta = \"1 - (0.3", "beta = \"1.2 - (0.3");
+    let message = error_of("beta = \"1 - t*(0.3", "beta = \"1.2 - t*(0.3");
     assert!(
         message.contains("exact.beta") && message.contains("outside [0, 1]"),
         "{message}"
