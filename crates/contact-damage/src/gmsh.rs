@@ -1,10 +1,11 @@
-//! Reader of Gmsh meshes in the MSH 4.1 ASCII format (what Gmsh writes with
-//! `Mesh.MshFileVersion = 4.1; Mesh.Binary = 0;`), producing a validated [`Mesh`] whose
-//! boundary facets are tagged with the parts Γ1, Γ2, Γ3 of the paper (§2) through physical
-//! groups.
+//! Reader of Gmsh meshes in the MSH 4.1 format, ASCII or binary (what Gmsh writes with
+//! `Mesh.MshFileVersion = 4.1;` and `Mesh.Binary = 0;` or `Mesh.Binary = 1;`), producing a
+//! validated [`Mesh`] whose boundary facets are tagged with the parts Γ1, Γ2, Γ3 of the paper
+//! (§2) through physical groups. Both encodings are read into the same records and give the
+//! same mesh.
 //!
 //! What is read:
-//! - `$MeshFormat`: version 4.1 and file-type 0 (ASCII) are required;
+//! - `$MeshFormat`: version 4.1 is required, with file-type 0 (ASCII) or 1 (binary);
 //! - `$PhysicalNames` (optional): the names of physical groups, for [`GroupRef::Name`];
 //! - `$Entities`: the physical tags of each geometric entity (point, curve, surface, volume);
 //! - `$Nodes`: node coordinates. Node tags may be sparse; they are compacted: the mesh vertices
@@ -17,10 +18,10 @@
 //!   dimension (points, edges of a 3D mesh) and blocks of unmapped entities are skipped; their
 //!   facets stay untagged, which [`Mesh::new`] reports if they lie on the boundary.
 //!
-//! Other sections (`$Periodic`, `$NodeData`, `$Comments`, …) are skipped; partitioned meshes
-//! (`$PartitionedEntities`) are rejected. Sections must come in the order Gmsh writes them:
-//! `$MeshFormat`, `$PhysicalNames`, `$Entities`, `$Nodes`, `$Elements`; all but
-//! `$PhysicalNames` are required (Gmsh always writes them).
+//! Other sections (`$Periodic`, `$NodeData`, `$Comments`, …) are skipped up to their `$End…`
+//! line; partitioned meshes (`$PartitionedEntities`) are rejected. Sections must come in the
+//! order Gmsh writes them: `$MeshFormat`, `$PhysicalNames`, `$Entities`, `$Nodes`,
+//! `$Elements`; all but `$PhysicalNames` are required (Gmsh always writes them).
 //!
 //! Second-order elements (3-node lines, type 8; 6-node triangles, type 9; 10-node tetrahedra,
 //! type 11) are accepted, but only their vertex nodes are used: the P2 space
@@ -31,11 +32,42 @@
 //! convention (in 2D: when the surface normal is +z), and an inverted cell is reported by
 //! [`Mesh::new`], never reoriented. In 2D every node used by a cell must have z = 0.
 //!
+//! # ASCII files
 //! Records are read line by line, as Gmsh writes them: each header, node tag, coordinate line,
 //! entity and element is one line; blank lines are ignored. Every error is an
 //! [`Error::InvalidMesh`] of the form `origin:line: expected …, found …` with the 1-based line
-//! number; errors found by [`Mesh::new`] after reading name the origin and explain how its
-//! vertex and cell indices relate to the file.
+//! number.
+//!
+//! # Binary files
+//! The header line `4.1 1 8` is followed by the 4-byte integer 1 in binary, which must read
+//! as 1 in little-endian byte order (files written on big-endian machines are rejected), and
+//! the data size must be 8 (the size of `size_t`). Section headers and footers and the content
+//! of `$PhysicalNames` stay ASCII lines; the contents of `$Entities`, `$Nodes` and `$Elements`
+//! are little-endian binary fields, `int` = 4-byte signed integer, `size_t` = 8-byte unsigned
+//! integer, `double` = 8-byte IEEE float, laid out as in the ASCII format without separators:
+//! - `$Entities`: four `size_t` counts (points, curves, surfaces, volumes); per point `int`
+//!   tag, 3 `double` coordinates, `size_t` number of physical tags and that many `int`; per
+//!   curve, surface or volume `int` tag, 6 `double` (bounding box), `size_t` number of
+//!   physical tags and that many `int`, `size_t` number of bounding entities and that many
+//!   `int`;
+//! - `$Nodes`: four `size_t` (number of blocks, number of nodes, smallest and largest tag);
+//!   per block `int` entity dimension, `int` entity tag, `int` parametric flag, `size_t`
+//!   number of nodes, then all the node tags (`size_t`), then all the coordinates (3 `double`
+//!   per node, plus the entity dimension's number of parametric coordinates if parametric);
+//! - `$Elements`: four `size_t` (number of blocks, number of elements, smallest and largest
+//!   tag); per block `int` entity dimension, `int` entity tag, `int` element type, `size_t`
+//!   number of elements, then per element its tag and node tags (`size_t`).
+//!
+//! Skipping a block of elements needs the number of nodes of its element type: the Gmsh types
+//! 1 to 31 (points; lines, triangles and tetrahedra up to order 5; quadrangles, hexahedra,
+//! prisms and pyramids up to order 2) are known; a skipped block of another
+//! type is an error in a binary file (an ASCII file skips it line by line). Errors are
+//! [`Error::InvalidMesh`] of the form `origin: $Nodes at byte 1234: expected …, found …`,
+//! naming the section and the 0-based byte offset, from the start of the file, of the field,
+//! entity, node, block or element in question (`origin: at byte 1234: …` between sections).
+//!
+//! In both encodings, errors found by [`Mesh::new`] after reading name the origin and explain
+//! how its vertex and cell indices relate to the file.
 
 use std::collections::{BTreeMap, HashMap};
 use std::fmt;
@@ -102,66 +134,77 @@ impl PhysicalMap {
     }
 }
 
-/// Reads a Gmsh MSH 4.1 ASCII file into a mesh of dimension D ∈ {2, 3}; see the module
-/// documentation for what is read and [`parse_msh`] for the errors. An unreadable file is an
-/// [`Error::InvalidInput`] naming the path. Bytes that are not UTF-8 are replaced (only names
-/// in `$PhysicalNames` could contain them).
+/// Reads a Gmsh MSH 4.1 file, ASCII or binary, into a mesh of dimension D ∈ {2, 3}; see the
+/// module documentation for what is read and [`parse_msh_bytes`] for the errors. An unreadable
+/// file is an [`Error::InvalidInput`] naming the path.
 pub fn read_msh<const D: usize>(path: &Path, map: &PhysicalMap) -> Result<Mesh<D>> {
     let bytes = std::fs::read(path)
         .map_err(|error| Error::InvalidInput(format!("cannot read {}: {error}", path.display())))?;
-    let text = String::from_utf8_lossy(&bytes);
-    parse_msh(&text, &path.display().to_string(), map)
+    parse_msh_bytes(&bytes, &path.display().to_string(), map)
 }
 
 /// Parses the text of a Gmsh MSH 4.1 ASCII file into a mesh of dimension D ∈ {2, 3}; `origin`
-/// names the text in error messages (usually the file name).
+/// names the text in error messages (usually the file name). Same as [`parse_msh_bytes`] on
+/// the bytes of `text`.
+pub fn parse_msh<const D: usize>(text: &str, origin: &str, map: &PhysicalMap) -> Result<Mesh<D>> {
+    parse_msh_bytes(text.as_bytes(), origin, map)
+}
+
+/// Parses the bytes of a Gmsh MSH 4.1 file, ASCII or binary, into a mesh of dimension
+/// D ∈ {2, 3}; `origin` names the file in error messages (usually the file name). Bytes that
+/// are not UTF-8 in a physical name are replaced by U+FFFD.
 ///
-/// Errors ([`Error::InvalidMesh`], `origin:line: expected …, found …`): another format version
-/// than 4.1; a binary file; a missing, duplicated, truncated or misplaced section; a malformed
-/// record (wrong number of fields, a field that is not a number, a non-finite coordinate); a
-/// duplicated node or entity tag; an element that refers to a node missing from `$Nodes`; a
-/// block of dimension greater than D; elements other than triangles/tetrahedra in a block of
+/// Errors ([`Error::InvalidMesh`], `origin:line: expected …, found …` in ASCII files,
+/// `origin: $Section at byte offset: expected …, found …` in binary files): another format
+/// version than 4.1; another file-type than 0 (ASCII) or 1 (binary); in a binary file, a
+/// data size other than 8, a byte-order integer that is not 1 in little-endian order, or an
+/// element type of unknown node count in a skipped block; a missing, duplicated, truncated or
+/// misplaced section; a malformed record (wrong number of fields, a field that is not a
+/// number, a count larger than the rest of the file, a non-finite coordinate); a duplicated
+/// node or entity tag; an element that refers to a node missing from `$Nodes`; a block of
+/// dimension greater than D; elements other than triangles/tetrahedra in a block of
 /// dimension D, or other than lines/triangles in a mapped block of dimension D − 1; a boundary
 /// element on a node of no cell; a group of the map that does not exist, has no entity of
 /// dimension D − 1, or is mapped to two parts; an entity whose groups map to two parts; a 2D
 /// node off the plane z = 0; no cell at all; and everything [`Mesh::new`] checks (inverted or
 /// degenerate cells, untagged boundary facets, no Dirichlet facet, …).
 /// D ∉ {2, 3} is an [`Error::InvalidInput`].
-pub fn parse_msh<const D: usize>(text: &str, origin: &str, map: &PhysicalMap) -> Result<Mesh<D>> {
+pub fn parse_msh_bytes<const D: usize>(
+    bytes: &[u8],
+    origin: &str,
+    map: &PhysicalMap,
+) -> Result<Mesh<D>> {
     if D != 2 && D != 3 {
         return Err(Error::InvalidInput(format!(
             "Gmsh meshes can be read in dimension 2 or 3, not {D}"
         )));
     }
-    let mut reader = Reader {
-        origin,
-        lines: text.lines().enumerate(),
-        line: 0,
-    };
+    let mut reader = Reader::new(origin, bytes);
     read_mesh_format(&mut reader)?;
 
     // Known sections in the order Gmsh writes them, with their rank.
     const ORDER: [&str; 4] = ["PhysicalNames", "Entities", "Nodes", "Elements"];
+    const SECTIONS: [&str; 4] = ["$PhysicalNames", "$Entities", "$Nodes", "$Elements"];
     let mut last_section: Option<(usize, Record)> = None;
-    let mut physical_names: Option<(usize, Vec<PhysicalName>)> = None;
-    let mut entities: Option<(usize, Entities)> = None;
+    let mut physical_names: Option<(Location, Vec<PhysicalName>)> = None;
+    let mut entities: Option<(Location, Entities)> = None;
     let mut nodes: Option<HashMap<u64, Node>> = None;
     let mut elements: Option<Elements> = None;
 
     while let Some(header) = reader.next_record() {
-        let Some(name) = header.text.strip_prefix('$') else {
+        let Some(name) = header.text.strip_prefix(b"$") else {
             return Err(header.fail("a section header `$Name`"));
         };
-        if name == "PartitionedEntities" {
+        if name == b"PartitionedEntities" {
             return Err(header.fail(
                 "an unpartitioned mesh (partitioned meshes are not supported; save without \
                  partitioning)",
             ));
         }
-        if name == "MeshFormat" || name.starts_with("End") {
+        if name == b"MeshFormat" || name.starts_with(b"End") {
             return Err(header.fail("a section header other than `$MeshFormat` or `$End…`"));
         }
-        let Some(rank) = ORDER.iter().position(|&known| known == name) else {
+        let Some(rank) = ORDER.iter().position(|known| known.as_bytes() == name) else {
             skip_section(&mut reader, name)?;
             continue;
         };
@@ -171,49 +214,70 @@ pub fn parse_msh<const D: usize>(text: &str, origin: &str, map: &PhysicalMap) ->
                     "the sections in the order `$MeshFormat`, `$PhysicalNames`, `$Entities`, \
                      `$Nodes`, `$Elements`, each at most once",
                     format!(
-                        "`{}` after `{}` at line {}",
-                        header.text, last.text, last.line
+                        "{} after {} at {}",
+                        header.quoted(),
+                        last.quoted(),
+                        last.location
                     ),
                 ));
             }
         }
+        reader.section = Some(SECTIONS[rank]);
+        let header = reader.relocate(header);
+        let binary = reader.binary;
         match rank {
-            0 => physical_names = Some((header.line, read_physical_names(&mut reader)?)),
-            1 => entities = Some((header.line, read_entities(&mut reader)?)),
+            0 => physical_names = Some((header.location, read_physical_names(&mut reader)?)),
+            1 => {
+                let read = if binary {
+                    read_entities_binary(&mut reader)?
+                } else {
+                    read_entities(&mut reader)?
+                };
+                entities = Some((header.location, read));
+            }
             2 => {
                 if entities.is_none() {
                     return Err(header.fail("an `$Entities` section before `$Nodes`"));
                 }
-                nodes = Some(read_nodes(&mut reader)?);
+                nodes = Some(if binary {
+                    read_nodes_binary(&mut reader)?
+                } else {
+                    read_nodes(&mut reader)?
+                });
             }
             _ => {
-                let (Some((entities_line, entities)), Some(nodes)) = (&entities, &nodes) else {
+                let (Some((entities_location, entities)), Some(nodes)) = (&entities, &nodes) else {
                     return Err(header.fail("`$Entities` and `$Nodes` sections before `$Elements`"));
                 };
                 let group_parts = resolve_map(
                     map,
                     physical_names.as_ref(),
                     entities,
-                    *entities_line,
+                    *entities_location,
                     D - 1,
                     &header,
                 )?;
                 let entity_parts = boundary_entity_parts(origin, entities, &group_parts, D - 1)?;
-                elements = Some(read_elements::<D>(
-                    &mut reader,
-                    &header,
+                let blocks = ElementBlocks {
+                    section: header.location,
                     nodes,
                     entities,
-                    &entity_parts,
-                )?);
+                    entity_parts: &entity_parts,
+                };
+                elements = Some(if binary {
+                    read_elements_binary::<D>(&mut reader, &blocks)?
+                } else {
+                    read_elements::<D>(&mut reader, &blocks)?
+                });
             }
         }
+        reader.section = None;
         last_section = Some((rank, header));
     }
     let (Some(nodes), Some(elements)) = (nodes, elements) else {
         return Err(fail(
             origin,
-            reader.line + 1,
+            reader.end_location(),
             "`$Nodes` and `$Elements` sections",
             "end of file",
         ));
@@ -223,6 +287,47 @@ pub fn parse_msh<const D: usize>(text: &str, origin: &str, map: &PhysicalMap) ->
 
 /// Names of entities and of their dimensions in messages.
 const ENTITY_KINDS: [&str; 4] = ["point", "curve", "surface", "volume"];
+
+/// Where a record or a binary field lies in the file, for messages.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Location {
+    /// 1-based line number, in an ASCII file.
+    Line(usize),
+    /// 0-based byte offset from the start of a binary file, in a known section or between
+    /// sections (None).
+    Byte {
+        section: Option<&'static str>,
+        offset: usize,
+    },
+}
+
+impl Location {
+    /// The start of a message: `origin:line`, `origin: $Section at byte offset` or
+    /// `origin: at byte offset`.
+    fn prefix(self, origin: &str) -> String {
+        match self {
+            Location::Line(line) => format!("{origin}:{line}"),
+            Location::Byte {
+                section: Some(section),
+                offset,
+            } => format!("{origin}: {section} at byte {offset}"),
+            Location::Byte {
+                section: None,
+                offset,
+            } => format!("{origin}: at byte {offset}"),
+        }
+    }
+}
+
+impl fmt::Display for Location {
+    /// `line 12` or `byte 1234`, for references to an earlier record.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Location::Line(line) => write!(f, "line {line}"),
+            Location::Byte { offset, .. } => write!(f, "byte {offset}"),
+        }
+    }
+}
 
 /// One physical name: `dimension tag "name"`.
 struct PhysicalName {
@@ -234,52 +339,65 @@ struct PhysicalName {
 /// A geometric entity with its physical tags.
 struct Entity {
     physical_tags: Vec<i32>,
-    line: usize,
+    location: Location,
 }
 
 /// Entities by dimension (0 to 3) and tag.
 type Entities = [BTreeMap<i32, Entity>; 4];
 
-/// A node with the line of its coordinates.
+/// A node with the location of its coordinates.
 struct Node {
     coordinates: [f64; 3],
-    line: usize,
+    location: Location,
 }
 
 /// The cells and tagged boundary facets of `$Elements`, by node tag, in file order.
 struct Elements {
-    header_line: usize,
+    /// The `$Elements` header.
+    section: Location,
     /// Vertex node tags of the cells, stride D + 1.
     cell_nodes: Vec<u64>,
     /// Vertex node tags of the boundary facets, stride D.
     facet_nodes: Vec<u64>,
     facet_parts: Vec<BoundaryPart>,
-    facet_lines: Vec<usize>,
+    facet_locations: Vec<Location>,
     facet_elements: Vec<u64>,
 }
 
-/// A non-blank line split into whitespace-separated fields.
+/// What the element blocks of `$Elements` are read against: the `$Elements` header, the nodes,
+/// the entities, and the boundary part of each mapped entity of dimension D − 1.
+struct ElementBlocks<'s> {
+    section: Location,
+    nodes: &'s HashMap<u64, Node>,
+    entities: &'s Entities,
+    entity_parts: &'s BTreeMap<i32, BoundaryPart>,
+}
+
+/// A non-blank line split into whitespace-separated fields (as bytes: only physical names
+/// may hold text that is not ASCII).
 struct Record<'a> {
     origin: &'a str,
-    line: usize,
-    text: &'a str,
-    fields: Vec<&'a str>,
+    location: Location,
+    /// Byte offset of the start of the line.
+    offset: usize,
+    text: &'a [u8],
+    fields: Vec<&'a [u8]>,
 }
 
 impl Record<'_> {
     /// The line, quoted and shortened for messages.
     fn quoted(&self) -> String {
-        format!("`{}`", shorten(self.text))
+        format!("`{}`", shorten(&printable(self.text)))
     }
 
     /// Error at this line: expected …, found this line.
     fn fail(&self, expected: impl fmt::Display) -> Error {
-        fail(self.origin, self.line, expected, self.quoted())
+        fail(self.origin, self.location, expected, self.quoted())
     }
 
     /// Error at this line with a custom "found" part.
     fn fail_with(&self, expected: impl fmt::Display, found: impl fmt::Display) -> Error {
-        fail(self.origin, self.line, expected, found)
+        fail(self.origin, self.location, expected, found)
     }
 
     /// Requires exactly `count` fields.
@@ -304,10 +422,13 @@ impl Record<'_> {
         let Some(field) = self.fields.get(index) else {
             return Err(self.fail(format!("{what} as field {}", index + 1)));
         };
-        field.parse().map_err(|_| {
+        let value = std::str::from_utf8(field)
+            .ok()
+            .and_then(|text| text.parse().ok());
+        value.ok_or_else(|| {
             self.fail_with(
                 format!("{what} as field {}", index + 1),
-                format!("`{}` in {}", shorten(field), self.quoted()),
+                format!("`{}` in {}", shorten(&printable(field)), self.quoted()),
             )
         })
     }
@@ -326,44 +447,120 @@ impl Record<'_> {
     }
 }
 
-/// Line-by-line reader that keeps the 1-based number of the last line read.
+/// Reader of the lines of an ASCII or binary file, and of the binary sections through a
+/// [`Cursor`]. Keeps the byte offset of the next unread byte and the 1-based number of the
+/// last line read (meaningful in ASCII files only).
 struct Reader<'a> {
     origin: &'a str,
-    lines: std::iter::Enumerate<std::str::Lines<'a>>,
+    bytes: &'a [u8],
+    position: usize,
     line: usize,
+    /// File-type 1: records are located by byte offset, and sections are read by a cursor.
+    binary: bool,
+    /// The known section being read, for locations in binary files.
+    section: Option<&'static str>,
 }
 
 impl<'a> Reader<'a> {
-    /// The next non-blank line, or None at the end of the text.
+    fn new(origin: &'a str, bytes: &'a [u8]) -> Self {
+        Reader {
+            origin,
+            bytes,
+            position: 0,
+            line: 0,
+            binary: false,
+            section: None,
+        }
+    }
+
+    /// The location of the line starting at byte `offset`: that offset in a binary file, the
+    /// last line read in an ASCII file.
+    fn location(&self, offset: usize) -> Location {
+        if self.binary {
+            Location::Byte {
+                section: self.section,
+                offset,
+            }
+        } else {
+            Location::Line(self.line)
+        }
+    }
+
+    /// The location of the end of the file.
+    fn end_location(&self) -> Location {
+        if self.binary {
+            Location::Byte {
+                section: self.section,
+                offset: self.bytes.len(),
+            }
+        } else {
+            Location::Line(self.line + 1)
+        }
+    }
+
+    /// The record, located again after a change of section or of file-type.
+    fn relocate(&self, record: Record<'a>) -> Record<'a> {
+        if self.binary {
+            Record {
+                location: self.location(record.offset),
+                ..record
+            }
+        } else {
+            record
+        }
+    }
+
+    /// The next line (without its `\n`) and the offset of its start, or None at the end.
+    fn next_line(&mut self) -> Option<(usize, &'a [u8])> {
+        let start = self.position;
+        let rest = self.bytes.get(start..).filter(|rest| !rest.is_empty())?;
+        let (line, consumed) = match rest.iter().position(|&byte| byte == b'\n') {
+            Some(end) => (&rest[..end], end + 1),
+            None => (rest, rest.len()),
+        };
+        self.position += consumed;
+        self.line += 1;
+        Some((start, line))
+    }
+
+    /// The next non-blank line, or None at the end of the file.
     fn next_record(&mut self) -> Option<Record<'a>> {
-        for (index, text) in self.lines.by_ref() {
-            self.line = index + 1;
-            let text = text.trim();
+        while let Some((offset, line)) = self.next_line() {
+            let text = line.trim_ascii();
             if !text.is_empty() {
                 return Some(Record {
                     origin: self.origin,
-                    line: self.line,
+                    location: self.location(offset),
+                    offset,
                     text,
-                    fields: text.split_whitespace().collect(),
+                    fields: text
+                        .split(u8::is_ascii_whitespace)
+                        .filter(|field| !field.is_empty())
+                        .collect(),
                 });
             }
         }
         None
     }
 
-    /// The next non-blank line; at the end of the text an error expecting `expected`.
+    /// The next non-blank line; at the end of the file an error expecting `expected`.
     fn expect_record(&mut self, expected: impl fmt::Display) -> Result<Record<'a>> {
         match self.next_record() {
             Some(record) => Ok(record),
-            None => Err(fail(self.origin, self.line + 1, expected, "end of file")),
+            None => Err(fail(
+                self.origin,
+                self.end_location(),
+                expected,
+                "end of file",
+            )),
         }
     }
 
-    /// Requires the line `$End<section>`.
+    /// Requires the line `$End<section>` (after the `\n` that ends a binary section).
     fn expect_end(&mut self, section: &str) -> Result<()> {
         let end = format!("$End{section}");
         let record = self.expect_record(format!("`{end}`"))?;
-        if record.text == end {
+        if record.text == end.as_bytes() {
             Ok(())
         } else {
             Err(record.fail(format!("`{end}`")))
@@ -371,11 +568,134 @@ impl<'a> Reader<'a> {
     }
 }
 
-/// `origin:line: expected …, found …`.
-fn fail(origin: &str, line: usize, expected: impl fmt::Display, found: impl fmt::Display) -> Error {
+/// Reads the little-endian binary fields of a section of a binary file from the reader's
+/// position, which it advances. Errors name the section and the byte offset.
+struct Cursor<'r, 'a> {
+    reader: &'r mut Reader<'a>,
+}
+
+/// Bytes of a node or element block header: three `int` and one `size_t`.
+const BLOCK_HEADER_BYTES: usize = 3 * 4 + 8;
+
+impl<'a> Cursor<'_, 'a> {
+    /// Byte offset of the next field.
+    fn offset(&self) -> usize {
+        self.reader.position
+    }
+
+    /// Number of bytes left in the file.
+    fn remaining(&self) -> usize {
+        self.reader.bytes.len() - self.reader.position
+    }
+
+    /// The location of byte `offset` in the current section.
+    fn location(&self, offset: usize) -> Location {
+        self.reader.location(offset)
+    }
+
+    /// Error at byte `offset`: expected …, found ….
+    fn fail_at(
+        &self,
+        offset: usize,
+        expected: impl fmt::Display,
+        found: impl fmt::Display,
+    ) -> Error {
+        fail(self.reader.origin, self.location(offset), expected, found)
+    }
+
+    /// The next `count` bytes, `what` describing them.
+    fn take(&mut self, count: usize, what: impl fmt::Display) -> Result<&'a [u8]> {
+        let start = self.reader.position;
+        if count > self.remaining() {
+            return Err(self.fail_at(
+                start,
+                format!("{what} ({count} bytes)"),
+                format!("the end of the file after {} bytes", self.remaining()),
+            ));
+        }
+        self.reader.position += count;
+        Ok(&self.reader.bytes[start..start + count])
+    }
+
+    /// The next `N` bytes.
+    fn array<const N: usize>(&mut self, what: impl fmt::Display) -> Result<[u8; N]> {
+        let mut array = [0; N];
+        array.copy_from_slice(self.take(N, what)?);
+        Ok(array)
+    }
+
+    /// An `int` (4-byte signed integer).
+    fn int(&mut self, what: impl fmt::Display) -> Result<i32> {
+        Ok(i32::from_le_bytes(self.array(what)?))
+    }
+
+    /// A `size_t` (8-byte unsigned integer).
+    fn size(&mut self, what: impl fmt::Display) -> Result<u64> {
+        Ok(u64::from_le_bytes(self.array(what)?))
+    }
+
+    /// A `size_t` counting items of at least `item_bytes` bytes each, which must fit in the
+    /// rest of the file (so that a corrupted count fails here, before any allocation).
+    fn count(&mut self, what: &str, item_bytes: usize) -> Result<usize> {
+        let offset = self.offset();
+        let count = self.size(what)?;
+        let remaining = self.remaining();
+        usize::try_from(count)
+            .ok()
+            .filter(|&count| {
+                count
+                    .checked_mul(item_bytes)
+                    .is_some_and(|bytes| bytes <= remaining)
+            })
+            .ok_or_else(|| {
+                self.fail_at(
+                    offset,
+                    format!(
+                        "{what}, at most {} ({remaining} bytes left in the file, at least \
+                         {item_bytes} per item)",
+                        remaining / item_bytes.max(1)
+                    ),
+                    count,
+                )
+            })
+    }
+
+    /// An entity dimension: an `int` from 0 to 3.
+    fn dimension(&mut self) -> Result<usize> {
+        let offset = self.offset();
+        let dimension = self.int("the entity dimension")?;
+        usize::try_from(dimension)
+            .ok()
+            .filter(|&dimension| dimension <= 3)
+            .ok_or_else(|| self.fail_at(offset, "the entity dimension (0 to 3)", dimension))
+    }
+}
+
+/// `origin:line: expected …, found …` (or `origin: $Section at byte offset: …`).
+fn fail(
+    origin: &str,
+    location: Location,
+    expected: impl fmt::Display,
+    found: impl fmt::Display,
+) -> Error {
     Error::InvalidMesh(format!(
-        "{origin}:{line}: expected {expected}, found {found}"
+        "{}: expected {expected}, found {found}",
+        location.prefix(origin)
     ))
+}
+
+/// `bytes` as text for messages: invalid UTF-8 replaced by U+FFFD, control characters (as
+/// found in binary data) escaped.
+fn printable(bytes: &[u8]) -> String {
+    let mut text = String::new();
+    for character in String::from_utf8_lossy(bytes).chars() {
+        if character.is_control() {
+            text.extend(character.escape_default());
+        } else {
+            text.push(character);
+        }
+    }
+    text
 }
 
 /// At most 80 characters of `text` (cut at a character boundary).
@@ -386,58 +706,89 @@ fn shorten(text: &str) -> String {
     }
 }
 
-/// `$MeshFormat` / `4.1 0 8` / `$EndMeshFormat`.
+/// `$MeshFormat` / `4.1 0 8` (ASCII) or `4.1 1 8` and the binary integer 1 (binary) /
+/// `$EndMeshFormat`. Switches the reader to binary for file-type 1.
 fn read_mesh_format(reader: &mut Reader) -> Result<()> {
     let first = reader.expect_record("`$MeshFormat`")?;
-    if first.text != "$MeshFormat" {
+    if first.text != b"$MeshFormat" {
         return Err(first.fail("`$MeshFormat` (the first line of a Gmsh .msh file)"));
     }
     const HEADER: &str = "the format header `version file-type data-size`";
     let header = reader.expect_record(HEADER)?;
     header.expect_fields(3, HEADER)?;
     let version = header.fields[0];
-    if version.parse::<f64>().ok() != Some(4.1) {
+    let version_number = std::str::from_utf8(version)
+        .ok()
+        .and_then(|text| text.parse::<f64>().ok());
+    if version_number != Some(4.1) {
         return Err(header.fail_with(
             "MSH format version 4.1 (save with `Mesh.MshFileVersion = 4.1;`)",
-            format!("version `{}`", shorten(version)),
+            format!("version `{}`", shorten(&printable(version))),
         ));
     }
     match header.fields[1] {
-        "0" => {}
-        "1" => {
-            return Err(header.fail_with(
-                "file-type 0 (ASCII)",
-                "file-type 1: binary .msh not supported yet, save as ASCII (`Mesh.Binary = 0;`)",
-            ))
+        b"0" => {
+            header.parse::<usize>(2, "the data size (an integer)")?;
+        }
+        b"1" => {
+            reader.binary = true;
+            reader.section = Some("$MeshFormat");
+            let header = reader.relocate(header);
+            let data_size: usize = header.parse(2, "the data size (an integer)")?;
+            if data_size != 8 {
+                return Err(header.fail_with(
+                    "data-size 8 in a binary file (8-byte `size_t`, as Gmsh writes on 64-bit \
+                     machines)",
+                    format!("data-size {data_size}"),
+                ));
+            }
+            let mut cursor = Cursor { reader };
+            let offset = cursor.offset();
+            let marker: [u8; 4] = cursor.array("the byte-order integer 1")?;
+            if i32::from_le_bytes(marker) != 1 {
+                let found = if i32::from_be_bytes(marker) == 1 {
+                    "1 in big-endian byte order (files written on big-endian machines are not \
+                     supported)"
+                        .to_string()
+                } else {
+                    format!("the bytes {marker:02x?}")
+                };
+                return Err(cursor.fail_at(
+                    offset,
+                    "the integer 1 in little-endian byte order after the header",
+                    found,
+                ));
+            }
         }
         other => {
             return Err(header.fail_with(
-                "file-type 0 (ASCII)",
-                format!("file-type `{}`", shorten(other)),
+                "file-type 0 (ASCII) or 1 (binary)",
+                format!("file-type `{}`", shorten(&printable(other))),
             ))
         }
     }
-    header.parse::<usize>(2, "the data size (an integer)")?;
-    reader.expect_end("MeshFormat")
+    reader.expect_end("MeshFormat")?;
+    reader.section = None;
+    Ok(())
 }
 
-/// Skips an unknown section up to its `$End<name>` line.
-fn skip_section(reader: &mut Reader, name: &str) -> Result<()> {
-    let end = format!("$End{name}");
-    while let Some(record) = reader.next_record() {
-        if record.text == end {
+/// Skips an unknown section up to its `$End<name>` line (binary content included).
+fn skip_section(reader: &mut Reader, name: &[u8]) -> Result<()> {
+    let end = [b"$End", name].concat();
+    while let Some((_, line)) = reader.next_line() {
+        if line.trim_ascii() == end.as_slice() {
             return Ok(());
         }
     }
     Err(fail(
         reader.origin,
-        reader.line + 1,
-        format!("`{end}`"),
+        reader.end_location(),
+        format!("`{}`", shorten(&printable(&end))),
         "end of file",
     ))
 }
 
-/// `$PhysicalNames`: a count, then `dimension tag "name"` lines.
+/// `$PhysicalNames` (ASCII in both file-types): a count, then `dimension tag "name"` lines.
 fn read_physical_names(reader: &mut Reader) -> Result<Vec<PhysicalName>> {
     const COUNT: &str = "the number of physical names";
     let header = reader.expect_record(COUNT)?;
@@ -453,13 +804,13 @@ fn read_physical_names(reader: &mut Reader) -> Result<Vec<PhysicalName>> {
         }
         let tag: i32 = record.parse(1, "the physical tag")?;
         let quoted = skip_fields(record.text, 2);
-        if quoted.len() < 2 || !quoted.starts_with('"') || !quoted.ends_with('"') {
+        if quoted.len() < 2 || !quoted.starts_with(b"\"") || !quoted.ends_with(b"\"") {
             return Err(record.fail(WHAT));
         }
         names.push(PhysicalName {
             dimension,
             tag,
-            name: quoted[1..quoted.len() - 1].to_string(),
+            name: String::from_utf8_lossy(&quoted[1..quoted.len() - 1]).into_owned(),
         });
     }
     reader.expect_end("PhysicalNames")?;
@@ -467,17 +818,43 @@ fn read_physical_names(reader: &mut Reader) -> Result<Vec<PhysicalName>> {
 }
 
 /// The rest of `text` after its first `count` whitespace-separated fields, trimmed.
-fn skip_fields(text: &str, count: usize) -> &str {
+fn skip_fields(text: &[u8], count: usize) -> &[u8] {
     let mut rest = text;
     for _ in 0..count {
-        rest = rest.trim_start();
-        let end = rest.find(char::is_whitespace).unwrap_or(rest.len());
+        rest = rest.trim_ascii_start();
+        let end = rest
+            .iter()
+            .position(u8::is_ascii_whitespace)
+            .unwrap_or(rest.len());
         rest = &rest[end..];
     }
-    rest.trim()
+    rest.trim_ascii()
 }
 
-/// `$Entities`: counts of points, curves, surfaces, volumes, then one line per entity:
+/// Adds an entity of `$Entities`; a tag seen before in the same dimension is an error.
+fn insert_entity(
+    origin: &str,
+    entities: &mut Entities,
+    dimension: usize,
+    tag: i32,
+    entity: Entity,
+) -> Result<()> {
+    let location = entity.location;
+    match entities[dimension].insert(tag, entity) {
+        None => Ok(()),
+        Some(previous) => {
+            let kind = ENTITY_KINDS[dimension];
+            Err(fail(
+                origin,
+                location,
+                format!("distinct {kind} tags"),
+                format!("{kind} {tag} again (first at {})", previous.location),
+            ))
+        }
+    }
+}
+
+/// `$Entities` (ASCII): counts of points, curves, surfaces, volumes, then one line per entity:
 /// `tag X Y Z numPhysicalTags physicalTag…` for points and
 /// `tag minX minY minZ maxX maxY maxZ numPhysicalTags physicalTag… numBounding boundingTag…`
 /// for the others.
@@ -524,21 +901,73 @@ fn read_entities(reader: &mut Reader) -> Result<Entities> {
             record.expect_fields(end, &format!("a {kind} entity"))?;
             let entity = Entity {
                 physical_tags,
-                line: record.line,
+                location: record.location,
             };
-            if let Some(previous) = entities[dimension].insert(tag, entity) {
-                return Err(record.fail_with(
-                    format!("distinct {kind} tags"),
-                    format!("{kind} {tag} again (first at line {})", previous.line),
-                ));
-            }
+            insert_entity(reader.origin, &mut entities, dimension, tag, entity)?;
         }
     }
     reader.expect_end("Entities")?;
     Ok(entities)
 }
 
-/// `$Nodes`: `numEntityBlocks numNodes minNodeTag maxNodeTag`, then blocks
+/// `$Entities` (binary): four `size_t` counts, then per point `int` tag, 3 `double`, `size_t`
+/// numPhysicalTags, that many `int`; per curve, surface or volume `int` tag, 6 `double`,
+/// `size_t` numPhysicalTags, that many `int`, `size_t` numBounding, that many `int`.
+fn read_entities_binary(reader: &mut Reader) -> Result<Entities> {
+    let origin = reader.origin;
+    let mut cursor = Cursor { reader };
+    // The smallest entity, a point without physical tags: int, 3 double, size_t.
+    const SMALLEST_ENTITY_BYTES: usize = 4 + 3 * 8 + 8;
+    let mut counts = [0usize; 4];
+    for (dimension, count) in counts.iter_mut().enumerate() {
+        let what = format!("the number of {}s", ENTITY_KINDS[dimension]);
+        *count = cursor.count(&what, SMALLEST_ENTITY_BYTES)?;
+    }
+    let mut entities: Entities = Default::default();
+    for (dimension, &count) in counts.iter().enumerate() {
+        let kind = ENTITY_KINDS[dimension];
+        for _ in 0..count {
+            let offset = cursor.offset();
+            let tag = cursor.int(format_args!("the {kind} tag"))?;
+            let box_coordinates = if dimension == 0 { 3 } else { 6 };
+            cursor.take(
+                8 * box_coordinates,
+                format_args!("the {box_coordinates} coordinates of the {kind}'s position or box"),
+            )?;
+            let physical_count = cursor.count("the number of physical tags", 4)?;
+            let physical_tags = (0..physical_count)
+                .map(|_| cursor.int("a physical tag"))
+                .collect::<Result<Vec<i32>>>()?;
+            if dimension > 0 {
+                let bounding = cursor.count("the number of bounding entities", 4)?;
+                cursor.take(4 * bounding, "the bounding entity tags")?;
+            }
+            let entity = Entity {
+                physical_tags,
+                location: cursor.location(offset),
+            };
+            insert_entity(origin, &mut entities, dimension, tag, entity)?;
+        }
+    }
+    reader.expect_end("Entities")?;
+    Ok(entities)
+}
+
+/// Adds a node of `$Nodes`; a tag seen before is an error.
+fn insert_node(origin: &str, nodes: &mut HashMap<u64, Node>, tag: u64, node: Node) -> Result<()> {
+    let location = node.location;
+    match nodes.insert(tag, node) {
+        None => Ok(()),
+        Some(previous) => Err(fail(
+            origin,
+            location,
+            "distinct node tags",
+            format!("node {tag} again (first at {})", previous.location),
+        )),
+    }
+}
+
+/// `$Nodes` (ASCII): `numEntityBlocks numNodes minNodeTag maxNodeTag`, then blocks
 /// `entityDim entityTag parametric numNodesInBlock`, the block's node tags one per line, and
 /// their coordinates `x y z` (followed by `entityDim` parametric coordinates if parametric).
 fn read_nodes(reader: &mut Reader) -> Result<HashMap<u64, Node>> {
@@ -561,17 +990,17 @@ fn read_nodes(reader: &mut Reader) -> Result<HashMap<u64, Node>> {
         }
         block.parse::<i32>(1, "the entity tag")?;
         let parametric = match block.fields[2] {
-            "0" => false,
-            "1" => true,
+            b"0" => false,
+            b"1" => true,
             _ => return Err(block.fail("the parametric flag 0 or 1 as field 3")),
         };
         let count: usize = block.parse(3, "the number of nodes in the block")?;
         let mut tags = Vec::new();
         for k in 0..count {
             let what = format!(
-                "the tag of node {} of {count} of the block at line {}",
+                "the tag of node {} of {count} of the block at {}",
                 k + 1,
-                block.line
+                block.location
             );
             let record = reader.expect_record(&what)?;
             record.expect_fields(1, &what)?;
@@ -588,19 +1017,85 @@ fn read_nodes(reader: &mut Reader) -> Result<HashMap<u64, Node>> {
             }
             let node = Node {
                 coordinates,
-                line: record.line,
+                location: record.location,
             };
-            if let Some(previous) = nodes.insert(tag, node) {
-                return Err(record.fail_with(
-                    "distinct node tags",
-                    format!("node {tag} again (first at line {})", previous.line),
-                ));
-            }
+            insert_node(reader.origin, &mut nodes, tag, node)?;
         }
         read += count;
     }
     if read != total {
         return Err(header.fail_with(
+            format!("{total} nodes, as announced by the header"),
+            format!("{read} nodes in the blocks"),
+        ));
+    }
+    reader.expect_end("Nodes")?;
+    Ok(nodes)
+}
+
+/// `$Nodes` (binary): four `size_t` (numEntityBlocks numNodes minNodeTag maxNodeTag), then
+/// blocks of `int` entityDim, `int` entityTag, `int` parametric, `size_t` numNodesInBlock,
+/// the block's node tags (`size_t`), and their coordinates (3 `double`, followed by
+/// `entityDim` parametric coordinates if parametric).
+fn read_nodes_binary(reader: &mut Reader) -> Result<HashMap<u64, Node>> {
+    let origin = reader.origin;
+    let mut cursor = Cursor { reader };
+    let header = cursor.offset();
+    let blocks = cursor.count("the number of entity blocks", BLOCK_HEADER_BYTES)?;
+    let total = cursor.size("the number of nodes")?;
+    cursor.size("the smallest node tag")?;
+    cursor.size("the largest node tag")?;
+    let mut nodes: HashMap<u64, Node> = HashMap::new();
+    let mut read = 0u64;
+    for _ in 0..blocks {
+        let block = cursor.offset();
+        let dimension = cursor.dimension()?;
+        cursor.int("the entity tag")?;
+        let flag = cursor.offset();
+        let parametric = match cursor.int("the parametric flag")? {
+            0 => false,
+            1 => true,
+            other => return Err(cursor.fail_at(flag, "the parametric flag 0 or 1", other)),
+        };
+        let values = 3 + if parametric { dimension } else { 0 };
+        let count = cursor.count("the number of nodes in the block", 8 + 8 * values)?;
+        let mut tags = Vec::with_capacity(count);
+        for k in 0..count {
+            tags.push(cursor.size(format_args!(
+                "the tag of node {} of {count} of the block at byte {block}",
+                k + 1
+            ))?);
+        }
+        for tag in tags {
+            let offset = cursor.offset();
+            let bytes = cursor.take(
+                8 * values,
+                format_args!("the coordinates `x y z` of node {tag}"),
+            )?;
+            let mut coordinates = [0.0; 3];
+            for (k, coordinate) in coordinates.iter_mut().enumerate() {
+                let mut value = [0; 8];
+                value.copy_from_slice(&bytes[8 * k..8 * k + 8]);
+                *coordinate = f64::from_le_bytes(value);
+                if !coordinate.is_finite() {
+                    return Err(cursor.fail_at(
+                        offset + 8 * k,
+                        format!("coordinate {k} of node {tag} (finite)"),
+                        *coordinate,
+                    ));
+                }
+            }
+            let node = Node {
+                coordinates,
+                location: cursor.location(offset),
+            };
+            insert_node(origin, &mut nodes, tag, node)?;
+        }
+        read += count as u64;
+    }
+    if read != total {
+        return Err(cursor.fail_at(
+            header,
             format!("{total} nodes, as announced by the header"),
             format!("{read} nodes in the blocks"),
         ));
@@ -661,12 +1156,12 @@ fn part_label(part: BoundaryPart) -> &'static str {
 /// Resolves the physical map into physical tag → part for groups of dimension
 /// `boundary_dimension`, checking that every referenced group exists, contains an entity of
 /// that dimension, and is mapped to one part only. `at` is the record where the map is needed
-/// (the `$Elements` header), for errors without a better line.
+/// (the `$Elements` header), for errors without a better location.
 fn resolve_map(
     map: &PhysicalMap,
-    physical_names: Option<&(usize, Vec<PhysicalName>)>,
+    physical_names: Option<&(Location, Vec<PhysicalName>)>,
     entities: &Entities,
-    entities_line: usize,
+    entities_location: Location,
     boundary_dimension: usize,
     at: &Record,
 ) -> Result<BTreeMap<i32, BoundaryPart>> {
@@ -677,7 +1172,7 @@ fn resolve_map(
             let tags: Vec<i32> = match group {
                 GroupRef::Tag(tag) => vec![*tag],
                 GroupRef::Name(name) => {
-                    let Some((names_line, names)) = physical_names else {
+                    let Some((names_location, names)) = physical_names else {
                         return Err(at.fail_with(
                             format!(
                                 "a `$PhysicalNames` section defining the group \"{name}\" of \
@@ -699,7 +1194,7 @@ fn resolve_map(
                             .collect();
                         return Err(fail(
                             at.origin,
-                            *names_line,
+                            *names_location,
                             format!(
                                 "a physical group \"{name}\" of dimension {boundary_dimension} \
                                  (mapped to {})",
@@ -722,7 +1217,7 @@ fn resolve_map(
                 if !used {
                     return Err(fail(
                         at.origin,
-                        entities_line,
+                        entities_location,
                         format!(
                             "a {kind} in physical group {tag} ({group}, mapped to {})",
                             part_label(part)
@@ -734,7 +1229,7 @@ fn resolve_map(
                     if other != part {
                         return Err(fail(
                             at.origin,
-                            entities_line,
+                            entities_location,
                             format!("physical group {tag} ({group}) to be mapped to one part"),
                             format!(
                                 "it mapped to both {} and {}",
@@ -771,7 +1266,7 @@ fn boundary_entity_parts(
                 Some((first_group, first_part)) if first_part != part => {
                     return Err(fail(
                         origin,
-                        entity.line,
+                        entity.location,
                         format!("{kind} {tag} to lie in one boundary part"),
                         format!(
                             "physical groups {first_group} ({}) and {group} ({})",
@@ -791,46 +1286,167 @@ fn boundary_entity_parts(
     Ok(entity_parts)
 }
 
+/// Number of nodes of the Gmsh element types 1 to 31 (index: type − 1), as given by
+/// `gmsh.model.mesh.getElementProperties`; needed to skip element blocks of binary files.
+const NODES_PER_ELEMENT: [usize; 31] = [
+    2, 3, 4, 4, 8, 6, 5, 3, 6, 9, 10, 27, 18, 14, 1, 8, 20, 15, 13, 9, 10, 12, 15, 15, 21, 4, 5, 6,
+    20, 35, 56,
+];
+
+/// Number of nodes of a Gmsh element type, if known.
+fn nodes_per_element(element_type: i32) -> Option<usize> {
+    let index = usize::try_from(element_type).ok()?.checked_sub(1)?;
+    NODES_PER_ELEMENT.get(index).copied()
+}
+
 /// What is done with the elements of one block.
+#[derive(Clone, Copy)]
 enum BlockRole {
     Skip,
     Cells { nodes: usize },
     Facets { nodes: usize, part: BoundaryPart },
 }
 
-/// `$Elements`: `numEntityBlocks numElements minElementTag maxElementTag`, then blocks
-/// `entityDim entityTag elementType numElementsInBlock` followed by one line
-/// `elementTag nodeTag…` per element.
-fn read_elements<const D: usize>(
-    reader: &mut Reader,
-    section: &Record,
-    nodes: &HashMap<u64, Node>,
-    entities: &Entities,
-    entity_parts: &BTreeMap<i32, BoundaryPart>,
-) -> Result<Elements> {
-    const HEADER: &str =
-        "the element header `numEntityBlocks numElements minElementTag maxElementTag`";
+/// The role of an element block of dimension `dimension` on entity `entity` with elements of
+/// type `element_type`: cells for dimension D, facets for a mapped entity of dimension D − 1,
+/// skipped otherwise. Blocks of dimension greater than D, cells that are not triangles
+/// (tetrahedra) and mapped facets that are not lines (triangles) are errors at `location`.
+fn block_role<const D: usize>(
+    origin: &str,
+    location: Location,
+    dimension: usize,
+    entity: i32,
+    element_type: i32,
+    blocks: &ElementBlocks,
+) -> Result<BlockRole> {
     let (cell_name, facet_name) = if D == 2 {
         ("triangle", "line")
     } else {
         ("tetrahedron", "triangle")
     };
+    if dimension > D {
+        return Err(fail(
+            origin,
+            location,
+            format!("entity blocks of dimension at most {D} in a {D}D mesh"),
+            format!(
+                "a block of {} on {} {entity}",
+                element_type_name(element_type),
+                ENTITY_KINDS[dimension]
+            ),
+        ));
+    }
+    if dimension == D {
+        return match simplex_type(element_type, D + 1) {
+            Some(nodes) => Ok(BlockRole::Cells { nodes }),
+            None => Err(fail(
+                origin,
+                location,
+                format!("{cell_name}s (first or second order) in a {D}D entity block"),
+                element_type_name(element_type),
+            )),
+        };
+    }
+    if dimension + 1 < D {
+        return Ok(BlockRole::Skip);
+    }
+    let kind = ENTITY_KINDS[dimension];
+    if !blocks.entities[dimension].contains_key(&entity) {
+        return Err(fail(
+            origin,
+            location,
+            format!("a {kind} tag declared in `$Entities`"),
+            format!("{kind} {entity}"),
+        ));
+    }
+    let Some(&part) = blocks.entity_parts.get(&entity) else {
+        return Ok(BlockRole::Skip);
+    };
+    match simplex_type(element_type, D) {
+        Some(nodes) => Ok(BlockRole::Facets { nodes, part }),
+        None => Err(fail(
+            origin,
+            location,
+            format!(
+                "{facet_name}s (first or second order) on {kind} {entity} of {}",
+                part_label(part)
+            ),
+            element_type_name(element_type),
+        )),
+    }
+}
+
+/// Adds element `tag` with nodes `node_tags` of a block of role `role` (cells or facets;
+/// skipped blocks add nothing) to `elements`; a node missing from `$Nodes` is an error at
+/// `location`.
+fn push_element<const D: usize>(
+    origin: &str,
+    location: Location,
+    elements: &mut Elements,
+    role: BlockRole,
+    tag: u64,
+    node_tags: &[u64],
+    nodes: &HashMap<u64, Node>,
+) -> Result<()> {
+    let (vertices, part) = match role {
+        BlockRole::Skip => return Ok(()),
+        BlockRole::Cells { .. } => (D + 1, None),
+        BlockRole::Facets { part, .. } => (D, Some(part)),
+    };
+    if let Some(missing) = node_tags.iter().find(|node| !nodes.contains_key(node)) {
+        return Err(fail(
+            origin,
+            location,
+            "node tags defined in `$Nodes`",
+            format!("node {missing} in element {tag}"),
+        ));
+    }
+    match part {
+        None => elements
+            .cell_nodes
+            .extend_from_slice(&node_tags[..vertices]),
+        Some(part) => {
+            elements
+                .facet_nodes
+                .extend_from_slice(&node_tags[..vertices]);
+            elements.facet_parts.push(part);
+            elements.facet_locations.push(location);
+            elements.facet_elements.push(tag);
+        }
+    }
+    Ok(())
+}
+
+impl Elements {
+    /// No elements yet, for the `$Elements` section at `section`.
+    fn new(section: Location) -> Self {
+        Elements {
+            section,
+            cell_nodes: Vec::new(),
+            facet_nodes: Vec::new(),
+            facet_parts: Vec::new(),
+            facet_locations: Vec::new(),
+            facet_elements: Vec::new(),
+        }
+    }
+}
+
+/// `$Elements` (ASCII): `numEntityBlocks numElements minElementTag maxElementTag`, then blocks
+/// `entityDim entityTag elementType numElementsInBlock` followed by one line
+/// `elementTag nodeTag…` per element.
+fn read_elements<const D: usize>(reader: &mut Reader, blocks: &ElementBlocks) -> Result<Elements> {
+    const HEADER: &str =
+        "the element header `numEntityBlocks numElements minElementTag maxElementTag`";
     let header = reader.expect_record(HEADER)?;
     header.expect_fields(4, HEADER)?;
-    let blocks: usize = header.parse(0, "the number of entity blocks")?;
+    let block_count: usize = header.parse(0, "the number of entity blocks")?;
     let total: usize = header.parse(1, "the number of elements")?;
     header.parse::<u64>(2, "the smallest element tag")?;
     header.parse::<u64>(3, "the largest element tag")?;
-    let mut elements = Elements {
-        header_line: section.line,
-        cell_nodes: Vec::new(),
-        facet_nodes: Vec::new(),
-        facet_parts: Vec::new(),
-        facet_lines: Vec::new(),
-        facet_elements: Vec::new(),
-    };
+    let mut elements = Elements::new(blocks.section);
+    let mut node_tags = Vec::new();
     let mut read = 0usize;
-    for _ in 0..blocks {
+    for _ in 0..block_count {
         const BLOCK: &str =
             "an element block header `entityDim entityTag elementType numElementsInBlock`";
         let block = reader.expect_record(BLOCK)?;
@@ -842,99 +1458,131 @@ fn read_elements<const D: usize>(
         let entity: i32 = block.parse(1, "the entity tag")?;
         let element_type: i32 = block.parse(2, "the element type")?;
         let count: usize = block.parse(3, "the number of elements in the block")?;
-        let role = if dimension > D {
-            return Err(block.fail_with(
-                format!("entity blocks of dimension at most {D} in a {D}D mesh"),
-                format!(
-                    "a block of {} on {} {entity}",
-                    element_type_name(element_type),
-                    ENTITY_KINDS[dimension]
-                ),
-            ));
-        } else if dimension == D {
-            match simplex_type(element_type, D + 1) {
-                Some(nodes) => BlockRole::Cells { nodes },
-                None => {
-                    return Err(block.fail_with(
-                        format!("{cell_name}s (first or second order) in a {D}D entity block"),
-                        element_type_name(element_type),
-                    ))
-                }
-            }
-        } else if dimension + 1 == D {
-            let kind = ENTITY_KINDS[dimension];
-            if !entities[dimension].contains_key(&entity) {
-                return Err(block.fail_with(
-                    format!("a {kind} tag declared in `$Entities`"),
-                    format!("{kind} {entity}"),
-                ));
-            }
-            match entity_parts.get(&entity) {
-                None => BlockRole::Skip,
-                Some(&part) => match simplex_type(element_type, D) {
-                    Some(nodes) => BlockRole::Facets { nodes, part },
-                    None => {
-                        return Err(block.fail_with(
-                            format!(
-                                "{facet_name}s (first or second order) on {kind} {entity} of {}",
-                                part_label(part)
-                            ),
-                            element_type_name(element_type),
-                        ))
-                    }
-                },
-            }
-        } else {
-            BlockRole::Skip
-        };
+        let role = block_role::<D>(
+            reader.origin,
+            block.location,
+            dimension,
+            entity,
+            element_type,
+            blocks,
+        )?;
         for k in 0..count {
             let what = format!(
-                "element {} of {count} of the block at line {}",
+                "element {} of {count} of the block at {}",
                 k + 1,
-                block.line
+                block.location
             );
             let record = reader.expect_record(&what)?;
-            let (element_nodes, facet_part) = match role {
+            let element_nodes = match role {
                 BlockRole::Skip => {
-                    if record.text.starts_with('$') {
+                    if record.text.starts_with(b"$") {
                         return Err(record.fail(what));
                     }
                     continue;
                 }
-                BlockRole::Cells { nodes } => (nodes, None),
-                BlockRole::Facets { nodes, part } => (nodes, Some(part)),
+                BlockRole::Cells { nodes } | BlockRole::Facets { nodes, .. } => nodes,
             };
             record.expect_fields(
                 1 + element_nodes,
                 &format!("an element tag and {element_nodes} node tags"),
             )?;
             let tag: u64 = record.parse(0, "the element tag")?;
-            let vertices = if facet_part.is_some() { D } else { D + 1 };
+            node_tags.clear();
             for index in 0..element_nodes {
-                let node: u64 = record.parse(1 + index, "a node tag")?;
-                if !nodes.contains_key(&node) {
-                    return Err(record.fail_with(
-                        "node tags defined in `$Nodes`",
-                        format!("node {node} in element {tag}"),
-                    ));
-                }
-                if index < vertices {
-                    match facet_part {
-                        Some(_) => elements.facet_nodes.push(node),
-                        None => elements.cell_nodes.push(node),
-                    }
-                }
+                node_tags.push(record.parse::<u64>(1 + index, "a node tag")?);
             }
-            if let Some(part) = facet_part {
-                elements.facet_parts.push(part);
-                elements.facet_lines.push(record.line);
-                elements.facet_elements.push(tag);
-            }
+            push_element::<D>(
+                reader.origin,
+                record.location,
+                &mut elements,
+                role,
+                tag,
+                &node_tags,
+                blocks.nodes,
+            )?;
         }
         read += count;
     }
     if read != total {
         return Err(header.fail_with(
+            format!("{total} elements, as announced by the header"),
+            format!("{read} elements in the blocks"),
+        ));
+    }
+    reader.expect_end("Elements")?;
+    Ok(elements)
+}
+
+/// `$Elements` (binary): four `size_t` (numEntityBlocks numElements minElementTag
+/// maxElementTag), then blocks of `int` entityDim, `int` entityTag, `int` elementType,
+/// `size_t` numElementsInBlock, followed per element by its tag and node tags (`size_t`).
+fn read_elements_binary<const D: usize>(
+    reader: &mut Reader,
+    blocks: &ElementBlocks,
+) -> Result<Elements> {
+    let origin = reader.origin;
+    let mut cursor = Cursor { reader };
+    let header = cursor.offset();
+    let block_count = cursor.count("the number of entity blocks", BLOCK_HEADER_BYTES)?;
+    let total = cursor.size("the number of elements")?;
+    cursor.size("the smallest element tag")?;
+    cursor.size("the largest element tag")?;
+    let mut elements = Elements::new(blocks.section);
+    let mut node_tags = Vec::new();
+    let mut read = 0u64;
+    for _ in 0..block_count {
+        let block = cursor.offset();
+        let dimension = cursor.dimension()?;
+        let entity = cursor.int("the entity tag")?;
+        let element_type = cursor.int("the element type")?;
+        let location = cursor.location(block);
+        let role = block_role::<D>(origin, location, dimension, entity, element_type, blocks)?;
+        let element_nodes = match role {
+            BlockRole::Skip => nodes_per_element(element_type).ok_or_else(|| {
+                cursor.fail_at(
+                    block,
+                    "a block of element types 1 to 31 (whose number of nodes is known, to skip \
+                     the block)",
+                    element_type_name(element_type),
+                )
+            })?,
+            BlockRole::Cells { nodes } | BlockRole::Facets { nodes, .. } => nodes,
+        };
+        let element_bytes = 8 * (1 + element_nodes);
+        let count = cursor.count("the number of elements in the block", element_bytes)?;
+        if let BlockRole::Skip = role {
+            cursor.take(
+                count * element_bytes,
+                format_args!("the {count} elements of the block at byte {block}"),
+            )?;
+        } else {
+            for k in 0..count {
+                let offset = cursor.offset();
+                let tag = cursor.size(format_args!(
+                    "element {} of {count} of the block at byte {block}",
+                    k + 1
+                ))?;
+                node_tags.clear();
+                for _ in 0..element_nodes {
+                    node_tags.push(cursor.size(format_args!("a node tag of element {tag}"))?);
+                }
+                let location = cursor.location(offset);
+                push_element::<D>(
+                    origin,
+                    location,
+                    &mut elements,
+                    role,
+                    tag,
+                    &node_tags,
+                    blocks.nodes,
+                )?;
+            }
+        }
+        read += count as u64;
+    }
+    if read != total {
+        return Err(cursor.fail_at(
+            header,
             format!("{total} elements, as announced by the header"),
             format!("{read} elements in the blocks"),
         ));
@@ -957,7 +1605,7 @@ fn build_mesh<const D: usize>(
     if elements.cell_nodes.is_empty() {
         return Err(fail(
             origin,
-            elements.header_line,
+            elements.section,
             format!("{cells_name} in an entity block of dimension {D}"),
             "none in `$Elements`",
         ));
@@ -971,7 +1619,7 @@ fn build_mesh<const D: usize>(
         let node = nodes.get(tag).ok_or_else(|| {
             fail(
                 origin,
-                elements.header_line,
+                elements.section,
                 "node tags defined in `$Nodes`",
                 format!("node {tag}"),
             )
@@ -979,7 +1627,7 @@ fn build_mesh<const D: usize>(
         if D == 2 && node.coordinates[2] != 0.0 {
             return Err(fail(
                 origin,
-                node.line,
+                node.location,
                 "z = 0 for the nodes of a 2D mesh",
                 format!("z = {} for node {tag}", node.coordinates[2]),
             ));
@@ -993,7 +1641,7 @@ fn build_mesh<const D: usize>(
             let Some(&vertex) = index.get(tag) else {
                 return Err(fail(
                     origin,
-                    elements.facet_lines[f],
+                    elements.facet_locations[f],
                     format!(
                         "the nodes of boundary element {} to be vertices of {cell_name}s",
                         elements.facet_elements[f]
@@ -1259,18 +1907,385 @@ mod tests {
         assert!(message.contains("found version `2.2`"), "{message}");
     }
 
+    /// The Gmsh-written meshes of `tests/meshes/make_binary_meshes.py`: (name, dimension).
+    const GMSH_MESHES: [(&str, usize); 3] =
+        [("unit_square", 2), ("unit_square_p2", 2), ("unit_cube", 3)];
+
+    fn gmsh_bytes(name: &str, encoding: &str) -> Vec<u8> {
+        std::fs::read(mesh_file(&format!("{name}_{encoding}.msh"))).unwrap()
+    }
+
+    /// Every assignment of the groups "clamped" (1), "contact" (2), "traction" (3) to Γ1, Γ2,
+    /// Γ3, by name and by tag.
+    fn all_group_maps() -> Vec<PhysicalMap> {
+        let groups = [("clamped", 1), ("contact", 2), ("traction", 3)];
+        let orders = [
+            [0, 1, 2],
+            [0, 2, 1],
+            [1, 0, 2],
+            [1, 2, 0],
+            [2, 0, 1],
+            [2, 1, 0],
+        ];
+        let mut maps = Vec::new();
+        for order in orders {
+            let [dirichlet, neumann, contact] = order.map(|k| groups[k]);
+            maps.push(PhysicalMap::by_names(
+                &[dirichlet.0],
+                &[neumann.0],
+                &[contact.0],
+            ));
+            maps.push(PhysicalMap {
+                dirichlet: vec![GroupRef::Tag(dirichlet.1)],
+                neumann: vec![GroupRef::Tag(neumann.1)],
+                contact: vec![GroupRef::Tag(contact.1)],
+            });
+        }
+        maps
+    }
+
+    /// Same vertices bit for bit, same cells, same facets with the same parts.
+    fn assert_bitwise_same_mesh<const D: usize>(read: &Mesh<D>, expected: &Mesh<D>) {
+        let bits = |m: &Mesh<D>| {
+            m.vertices()
+                .iter()
+                .map(|x| x.map(f64::to_bits))
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(bits(read), bits(expected));
+        assert_same_mesh(read, expected);
+    }
+
+    fn read_both<const D: usize>(
+        name: &str,
+        map: &PhysicalMap,
+    ) -> (Result<Mesh<D>>, Result<Mesh<D>>) {
+        let ascii = parse_msh_bytes::<D>(&gmsh_bytes(name, "ascii"), "m.msh", map);
+        let binary = parse_msh_bytes::<D>(&gmsh_bytes(name, "binary"), "m.msh", map);
+        (ascii, binary)
+    }
+
+    fn assert_binary_equals_ascii<const D: usize>(name: &str) {
+        for map in all_group_maps() {
+            let (ascii, binary) = read_both::<D>(name, &map);
+            assert_bitwise_same_mesh(&binary.unwrap(), &ascii.unwrap());
+        }
+        // A group left unmapped: the same error from both.
+        let map = PhysicalMap::by_names(&["clamped"], &[], &["contact"]);
+        let (ascii, binary) = read_both::<D>(name, &map);
+        let message = error_message(binary);
+        assert!(message.contains("carries no boundary part"), "{message}");
+        assert_eq!(message, error_message(ascii));
+    }
+
     #[test]
-    fn gmsh_reader_rejects_binary_files() {
-        let path = mesh_file("binary_header.msh");
-        let message = error_message(read_msh::<3>(&path, &names_map()));
+    fn binary_and_ascii_gmsh_files_give_identical_meshes() {
+        for (name, dimension) in GMSH_MESHES {
+            match dimension {
+                2 => assert_binary_equals_ascii::<2>(name),
+                _ => assert_binary_equals_ascii::<3>(name),
+            }
+        }
+    }
+
+    /// Measures of the whole mesh and of Γ1, Γ2, Γ3.
+    fn measures<const D: usize>(mesh: &Mesh<D>) -> [f64; 4] {
+        let mut measures = [0.0; 4];
+        measures[0] = (0..mesh.num_cells()).map(|c| mesh.cell_volume(c)).sum();
+        for f in 0..mesh.num_facets() {
+            let k = match mesh.facet_part(f) {
+                Dirichlet => 1,
+                Neumann => 2,
+                Contact => 3,
+            };
+            measures[k] += mesh.facet_measure(f);
+        }
+        measures
+    }
+
+    #[test]
+    fn binary_gmsh_meshes_carry_the_named_groups() {
+        // The script rounds coordinates to 12 significant digits: measures hold to ~1e-12.
+        let close = |a: [f64; 4], b: [f64; 4]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-10);
+        for name in ["unit_square", "unit_square_p2"] {
+            let bytes = gmsh_bytes(name, "binary");
+            let mesh = parse_msh_bytes::<2>(&bytes, name, &names_map()).unwrap();
+            assert!(mesh.num_cells() >= 8, "{name}: {} cells", mesh.num_cells());
+            let found = measures(&mesh);
+            assert!(close(found, [1.0, 1.0, 2.0, 1.0]), "{name}: {found:?}");
+        }
+        let bytes = gmsh_bytes("unit_cube", "binary");
+        let mesh = parse_msh_bytes::<3>(&bytes, "unit_cube", &names_map()).unwrap();
+        assert!(mesh.num_cells() >= 24, "{} cells", mesh.num_cells());
+        let found = measures(&mesh);
+        assert!(close(found, [1.0, 1.0, 4.0, 1.0]), "{found:?}");
+        // read_msh reads binary files too.
+        let read = read_msh::<3>(&mesh_file("unit_cube_binary.msh"), &names_map()).unwrap();
+        assert_bitwise_same_mesh(&read, &mesh);
+    }
+
+    /// Byte offset of the first occurrence of `pattern` in `bytes`.
+    fn find(bytes: &[u8], pattern: &[u8]) -> usize {
+        bytes
+            .windows(pattern.len())
+            .position(|window| window == pattern)
+            .unwrap()
+    }
+
+    #[test]
+    fn unknown_sections_of_binary_files_are_skipped() {
+        let bytes = gmsh_bytes("unit_square", "binary");
+        let nodes = find(&bytes, b"$Nodes\n");
+        let mut edited = bytes[..nodes].to_vec();
+        edited.extend_from_slice(b"$Comments\n\x00\x01\n\xff$Nodes\n\x0a\x00\n$EndComments\n");
+        edited.extend_from_slice(&bytes[nodes..]);
+        edited.extend_from_slice(b"$NodeData\n1\n\"u\"\n\x00\x00\x80\x3f\n$EndNodeData\n");
+        let expected = parse_msh_bytes::<2>(&bytes, "s.msh", &names_map()).unwrap();
+        let read = parse_msh_bytes::<2>(&edited, "s.msh", &names_map()).unwrap();
+        assert_bitwise_same_mesh(&read, &expected);
+    }
+
+    /// The byte offset in a message `origin: $Section at byte offset: …`.
+    fn error_offset(message: &str, origin: &str, section: &str) -> usize {
+        let prefix = format!("{origin}: {section} at byte ");
+        let rest = message
+            .strip_prefix(&prefix)
+            .unwrap_or_else(|| panic!("expected `{prefix}…`, found {message}"));
+        rest[..rest.find(':').unwrap()].parse().unwrap()
+    }
+
+    #[test]
+    fn truncated_binary_files_are_rejected_with_section_and_offset() {
+        for (name, dimension) in GMSH_MESHES {
+            let bytes = gmsh_bytes(name, "binary");
+            let marker = find(&bytes, b"4.1 1 8\n") + 8;
+            let entities = find(&bytes, b"$Entities\n") + 10;
+            let nodes = find(&bytes, b"$Nodes\n") + 7;
+            let end_nodes = find(&bytes, b"\n$EndNodes\n");
+            let elements = find(&bytes, b"$Elements\n") + 10;
+            let end_elements = find(&bytes, b"\n$EndElements\n");
+            let cuts = [
+                (marker + 2, "$MeshFormat", marker),
+                (entities + 20, "$Entities", entities),
+                (nodes + 5, "$Nodes", nodes),
+                ((nodes + end_nodes) / 2, "$Nodes", nodes),
+                (end_nodes - 3, "$Nodes", nodes),
+                (elements + 40, "$Elements", elements),
+                ((elements + end_elements) / 2, "$Elements", elements),
+                (end_elements - 1, "$Elements", elements),
+                // The binary data is complete, `$EndElements` is missing.
+                (end_elements + 1, "$Elements", elements),
+            ];
+            for (cut, section, start) in cuts {
+                let result = match dimension {
+                    2 => parse_msh_bytes::<2>(&bytes[..cut], "cut.msh", &names_map()).map(|_| ()),
+                    _ => parse_msh_bytes::<3>(&bytes[..cut], "cut.msh", &names_map()).map(|_| ()),
+                };
+                let message = error_message(result);
+                let offset = error_offset(&message, "cut.msh", section);
+                assert!(
+                    start <= offset && offset <= cut,
+                    "{name} cut at {cut}: {message}"
+                );
+                assert!(
+                    message.contains("found the end of the file after")
+                        || message.contains("bytes left in the file")
+                        || message.ends_with("found end of file"),
+                    "{name} cut at {cut}: {message}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn truncation_messages_say_what_was_expected_where() {
+        let bytes = gmsh_bytes("unit_square", "binary");
+        let message = error_message(parse_msh_bytes::<2>(&bytes[..22], "cut.msh", &names_map()));
+        assert_eq!(
+            message,
+            "cut.msh: $MeshFormat at byte 20: expected the byte-order integer 1 (4 bytes), \
+             found the end of the file after 2 bytes"
+        );
+        let entities = find(&bytes, b"$Entities\n") + 10;
+        let cut = &bytes[..entities + 20];
+        let message = error_message(parse_msh_bytes::<2>(cut, "cut.msh", &names_map()));
+        assert_eq!(
+            message,
+            format!(
+                "cut.msh: $Entities at byte {entities}: expected the number of points, at most 0 \
+                 (12 bytes left in the file, at least 36 per item), found 4"
+            )
+        );
+    }
+
+    #[test]
+    fn big_endian_files_and_other_data_sizes_are_rejected() {
+        let bytes = gmsh_bytes("unit_square", "binary");
+        let marker = find(&bytes, b"4.1 1 8\n") + 8;
+        assert_eq!(marker, 20);
+        let mut big_endian = bytes.clone();
+        big_endian[marker..marker + 4].copy_from_slice(&1i32.to_be_bytes());
+        let message = error_message(parse_msh_bytes::<2>(&big_endian, "be.msh", &names_map()));
+        assert_eq!(
+            message,
+            "be.msh: $MeshFormat at byte 20: expected the integer 1 in little-endian byte order \
+             after the header, found 1 in big-endian byte order (files written on big-endian \
+             machines are not supported)"
+        );
+        big_endian[marker..marker + 4].copy_from_slice(&[7, 0, 0, 0]);
+        let message = error_message(parse_msh_bytes::<2>(&big_endian, "be.msh", &names_map()));
         assert!(
-            message.starts_with(&format!("{}:2: ", path.display())),
+            message.ends_with("found the bytes [07, 00, 00, 00]"),
             "{message}"
         );
+
+        let mut data_size_4 = bytes.clone();
+        data_size_4[18] = b'4';
+        assert_eq!(&data_size_4[12..19], b"4.1 1 4");
+        let message = error_message(parse_msh_bytes::<2>(&data_size_4, "ds.msh", &names_map()));
+        assert_eq!(
+            message,
+            "ds.msh: $MeshFormat at byte 12: expected data-size 8 in a binary file (8-byte \
+             `size_t`, as Gmsh writes on 64-bit machines), found data-size 4"
+        );
+        let mut file_type_2 = bytes;
+        file_type_2[16] = b'2';
+        let message = error_message(parse_msh_bytes::<2>(&file_type_2, "ft.msh", &names_map()));
         assert!(
-            message.contains("binary .msh not supported yet, save as ASCII"),
+            message.starts_with("ft.msh:2: expected file-type 0 (ASCII) or 1 (binary)"),
             "{message}"
         );
+    }
+
+    /// Element blocks of a binary file: (offset of the block, dimension, element type, number
+    /// of elements, bytes per element).
+    fn binary_element_blocks(bytes: &[u8]) -> Vec<(usize, i32, i32, usize, usize)> {
+        let int = |at: usize| i32::from_le_bytes(bytes[at..at + 4].try_into().unwrap());
+        let size = |at: usize| u64::from_le_bytes(bytes[at..at + 8].try_into().unwrap()) as usize;
+        let mut at = find(bytes, b"$Elements\n") + 10;
+        let count = size(at);
+        at += 32;
+        let mut blocks = Vec::new();
+        for _ in 0..count {
+            let (dimension, element_type, elements) = (int(at), int(at + 8), size(at + 12));
+            let element_bytes = 8 * (1 + nodes_per_element(element_type).unwrap());
+            blocks.push((at, dimension, element_type, elements, element_bytes));
+            at += 20 + elements * element_bytes;
+        }
+        blocks
+    }
+
+    #[test]
+    fn binary_content_errors_name_section_and_offset() {
+        let bytes = gmsh_bytes("unit_square", "binary");
+        let blocks = binary_element_blocks(&bytes);
+        // An element on a missing node.
+        let &(cells, ..) = blocks.iter().find(|block| block.1 == 2).unwrap();
+        let element = cells + 20;
+        let tag = u64::from_le_bytes(bytes[element..element + 8].try_into().unwrap());
+        let mut edited = bytes.clone();
+        edited[element + 8..element + 16].copy_from_slice(&99999u64.to_le_bytes());
+        let message = error_message(parse_msh_bytes::<2>(&edited, "m.msh", &names_map()));
+        assert_eq!(
+            message,
+            format!(
+                "m.msh: $Elements at byte {element}: expected node tags defined in `$Nodes`, \
+                 found node 99999 in element {tag}"
+            )
+        );
+        // A skipped block (the corner point) of an element type of unknown node count.
+        let &(points, dimension, element_type, ..) = blocks.first().unwrap();
+        assert_eq!((dimension, element_type), (0, 15));
+        let mut edited = bytes.clone();
+        edited[points + 8..points + 12].copy_from_slice(&99i32.to_le_bytes());
+        let message = error_message(parse_msh_bytes::<2>(&edited, "m.msh", &names_map()));
+        assert!(
+            message.starts_with(&format!(
+                "m.msh: $Elements at byte {points}: expected a block of element types 1 to 31"
+            )),
+            "{message}"
+        );
+        assert!(message.ends_with("found element type 99"), "{message}");
+        // A cell block of quadrangles.
+        let mut edited = bytes.clone();
+        edited[cells + 8..cells + 12].copy_from_slice(&3i32.to_le_bytes());
+        let message = error_message(parse_msh_bytes::<2>(&edited, "m.msh", &names_map()));
+        assert_eq!(
+            message,
+            format!(
+                "m.msh: $Elements at byte {cells}: expected triangles (first or second order) \
+                 in a 2D entity block, found element type 3 (4-node quadrangle)"
+            )
+        );
+        // A non-finite coordinate: the first node of the first block.
+        let nodes = find(&bytes, b"$Nodes\n") + 7;
+        let first_block = nodes + 32;
+        let count = u64::from_le_bytes(
+            bytes[first_block + 12..first_block + 20]
+                .try_into()
+                .unwrap(),
+        );
+        let node_tag = u64::from_le_bytes(
+            bytes[first_block + 20..first_block + 28]
+                .try_into()
+                .unwrap(),
+        );
+        let y = first_block + 20 + 8 * count as usize + 8;
+        let mut edited = bytes.clone();
+        edited[y..y + 8].copy_from_slice(&f64::NAN.to_le_bytes());
+        let message = error_message(parse_msh_bytes::<2>(&edited, "m.msh", &names_map()));
+        assert_eq!(
+            message,
+            format!(
+                "m.msh: $Nodes at byte {y}: expected coordinate 1 of node {node_tag} (finite), \
+                 found NaN"
+            )
+        );
+        // A node block of dimension 7.
+        let mut edited = bytes;
+        edited[first_block..first_block + 4].copy_from_slice(&7i32.to_le_bytes());
+        let message = error_message(parse_msh_bytes::<2>(&edited, "m.msh", &names_map()));
+        assert_eq!(
+            message,
+            format!("m.msh: $Nodes at byte {first_block}: expected the entity dimension (0 to 3), found 7")
+        );
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        #[test]
+        fn mutated_or_truncated_binary_files_never_panic(
+            cube in any::<bool>(),
+            edits in prop::collection::vec(
+                (0usize..3, any::<prop::sample::Index>(), any::<u64>()),
+                1..4,
+            ),
+        ) {
+            let name = if cube { "unit_cube" } else { "unit_square" };
+            let mut bytes = gmsh_bytes(name, "binary");
+            for (kind, at, value) in edits {
+                if bytes.is_empty() {
+                    break;
+                }
+                let i = at.index(bytes.len());
+                match kind {
+                    // Cut the file.
+                    0 => bytes.truncate(i),
+                    // Flip bits of one byte.
+                    1 => bytes[i] ^= (value as u8).max(1),
+                    // Overwrite up to 8 bytes (a count, tag or coordinate) with a random value.
+                    _ => {
+                        let end = (i + 8).min(bytes.len());
+                        bytes[i..end].copy_from_slice(&value.to_le_bytes()[..end - i]);
+                    }
+                }
+            }
+            let two = parse_msh_bytes::<2>(&bytes, "mutated.msh", &names_map());
+            let three = parse_msh_bytes::<3>(&bytes, "mutated.msh", &names_map());
+            // Only Ok or an invalid-mesh error: no panic, no other kind of error.
+            prop_assert!(matches!(two, Ok(_) | Err(Error::InvalidMesh(_))), "{two:?}");
+            prop_assert!(matches!(three, Ok(_) | Err(Error::InvalidMesh(_))), "{three:?}");
+        }
     }
 
     #[test]
