@@ -1104,26 +1104,4 @@ mod tests {
         assert!(message.contains("more than two cells"), "{message}");
         assert!(message.contains("0 [0.0, 0.0], 1 [1.0, 0.0]"), "{message}");
     }
-
-    /// Timing of the boundary detection at 2·10^6 cells; run with
-    /// `cargo test -p contact-damage --lib box_mesh_timing -- --ignored --nocapture`.
-    #[test]
-    #[ignore]
-    fn box_mesh_timing() {
-        let start = std::time::Instant::now();
-        let mesh = unit_square(1024);
-        println!(
-            "2D 1024x1024 box_mesh: {} cells in {:?}",
-            mesh.num_cells(),
-            start.elapsed()
-        );
-        let start = std::time::Instant::now();
-        let mesh =
-            Mesh::<3>::box_mesh([0.0; 3], [1.0; 3], [64; 3], [[Dirichlet, Neumann]; 3]).unwrap();
-        println!(
-            "3D 64^3 box_mesh: {} cells in {:?}",
-            mesh.num_cells(),
-            start.elapsed()
-        );
-    }
 }
