@@ -24,6 +24,8 @@ use crate::problem::ProblemSetup;
 use contact_damage::contact::{ContactNodes, ContactStatus};
 use contact_damage::space::{strain, LagrangeSpace, Tabulation};
 use nalgebra::SVector;
+use rayon::prelude::*;
+use std::ops::Range;
 use std::path::Path;
 use verify::output::write_atomic;
 use verify::VerifyError;
@@ -212,28 +214,53 @@ pub fn contact_integrals<const D: usize>(
     integrals
 }
 
+/// Cells per task of the parallel cell sums.
+const CELL_CHUNK: usize = 4096;
+
+/// Σ over the cells of `cell_sum(range)` for consecutive ranges of [`CELL_CHUNK`] cells,
+/// computed in parallel and added in a fixed order: the result does not depend on the number
+/// of threads (a resumed run writes the same history bit for bit).
+fn sum_over_cells<const N: usize>(
+    cells: usize,
+    cell_sum: impl Fn(Range<usize>) -> [f64; N] + Sync,
+) -> [f64; N] {
+    let partial: Vec<[f64; N]> = (0..cells.div_ceil(CELL_CHUNK))
+        .into_par_iter()
+        .map(|chunk| cell_sum(chunk * CELL_CHUNK..((chunk + 1) * CELL_CHUNK).min(cells)))
+        .collect();
+    partial.iter().fold([0.0; N], |mut total, part| {
+        for (t, p) in total.iter_mut().zip(part) {
+            *t += p;
+        }
+        total
+    })
+}
+
 /// ∫_Ω β / |Ω| and |{β < 1/2}|, both by the rule of `tabulation`.
 pub fn damage_integrals<const D: usize>(
     space: &LagrangeSpace<D>,
     tabulation: &Tabulation<D>,
     damage: &[f64],
 ) -> (f64, f64) {
-    let (mut volume, mut integral, mut weak_area) = (0.0, 0.0, 0.0);
     let n = tabulation.nodes;
-    for c in 0..space.mesh().num_cells() {
-        let det = space.geometry(c).det.abs();
-        let nodes = space.cell_nodes(c);
-        for q in 0..tabulation.len() {
-            let values = &tabulation.values[q * n..(q + 1) * n];
-            let beta: f64 = nodes.iter().zip(values).map(|(&a, v)| damage[a] * v).sum();
-            let weight = tabulation.weights[q] * det;
-            volume += weight;
-            integral += weight * beta;
-            if beta < 0.5 {
-                weak_area += weight;
+    let [volume, integral, weak_area] = sum_over_cells(space.mesh().num_cells(), |cells| {
+        let mut sums = [0.0; 3];
+        for c in cells {
+            let det = space.geometry(c).det.abs();
+            let nodes = space.cell_nodes(c);
+            for q in 0..tabulation.len() {
+                let values = &tabulation.values[q * n..(q + 1) * n];
+                let beta: f64 = nodes.iter().zip(values).map(|(&a, v)| damage[a] * v).sum();
+                let weight = tabulation.weights[q] * det;
+                sums[0] += weight;
+                sums[1] += weight * beta;
+                if beta < 0.5 {
+                    sums[2] += weight;
+                }
             }
         }
-    }
+        sums
+    });
     (integral / volume, weak_area)
 }
 
@@ -246,15 +273,18 @@ pub fn viscous_power<const D: usize>(
     velocity: &[f64],
 ) -> f64 {
     let viscosity = &setup.problem.model.viscosity;
-    let mut power = 0.0;
-    for c in 0..space.mesh().num_cells() {
-        let det = space.geometry(c).det.abs();
-        for (point, weight) in tabulation.points.iter().zip(&tabulation.weights) {
-            let (_, gradient) = space.eval_vector(c, point, velocity);
-            let rate = strain(&gradient);
-            power += weight * det * viscosity.stress(&rate).dot(&rate);
+    let [power] = sum_over_cells(space.mesh().num_cells(), |cells| {
+        let mut power = 0.0;
+        for c in cells {
+            let det = space.geometry(c).det.abs();
+            for (point, weight) in tabulation.points.iter().zip(&tabulation.weights) {
+                let (_, gradient) = space.eval_vector(c, point, velocity);
+                let rate = strain(&gradient);
+                power += weight * det * viscosity.stress(&rate).dot(&rate);
+            }
         }
-    }
+        [power]
+    });
     power
 }
 
@@ -358,6 +388,30 @@ mod tests {
             let rigid = space.interpolate_vector(|x| [0.3 - x[1], 0.1 + x[0]]);
             assert!(viscous_power(&setup, &space, &tabulation, &rigid).abs() < 1e-13);
         }
+    }
+
+    #[test]
+    fn cell_sums_do_not_depend_on_the_number_of_threads() {
+        // sums over 3 chunks and a partial one, with values whose addition is not associative
+        let cells = 3 * CELL_CHUNK + 17;
+        let value = |c: usize| 1.0 / (c as f64 + 1.0) + 1e16 * ((c % 7) as f64 - 3.0);
+        let sum = || sum_over_cells(cells, |range| [range.map(value).sum::<f64>()]);
+        let pool = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+        };
+        let one = pool(1).install(sum);
+        let three = pool(3).install(sum);
+        assert_eq!(one[0].to_bits(), three[0].to_bits());
+        // and they are the chunks added in order
+        let mut expected = 0.0;
+        for chunk in 0..4 {
+            let range = chunk * CELL_CHUNK..((chunk + 1) * CELL_CHUNK).min(cells);
+            expected += range.map(value).sum::<f64>();
+        }
+        assert_eq!(one[0].to_bits(), expected.to_bits());
     }
 
     #[test]
