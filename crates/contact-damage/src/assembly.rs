@@ -1,7 +1,7 @@
 //! Parallel finite element assembly (rayon): element kernels for the velocity operator, the
 //! damage operator and the load vectors, and the scatter of element contributions.
 //!
-//! Matrices are assembled against a [`SparsityPattern`] built once per mesh: a numeric assembly
+//! Matrices are assembled against a [`SparsityPattern`](crate::linalg::SparsityPattern) built once per mesh: a numeric assembly
 //! computes every element matrix in parallel into one flat array and sums it into the pattern.
 
 use crate::laws::{Tensor, Viscosity};

@@ -34,7 +34,7 @@ fn check_finite(name: &str, value: f64) -> Result<()> {
 pub trait Viscosity<const D: usize>: Send + Sync {
     /// 𝒜(ε).
     fn stress(&self, strain_rate: &Tensor<D>) -> Tensor<D>;
-    /// Directional derivative d𝒜(ε)[δε] (the consistent tangent).
+    /// Directional derivative d𝒜(ε)\[δε\] (the consistent tangent).
     fn tangent(&self, strain_rate: &Tensor<D>, direction: &Tensor<D>) -> Tensor<D>;
     /// Potential Φ(ε) with ∇Φ = 𝒜, Φ(0) = 0.
     fn potential(&self, strain_rate: &Tensor<D>) -> f64;
@@ -162,7 +162,7 @@ impl<const D: usize> Viscosity<D> for SaturatingViscosity {
 pub trait Elasticity<const D: usize>: Send + Sync {
     /// G(ε, β).
     fn stress(&self, strain: &Tensor<D>, damage: f64) -> Tensor<D>;
-    /// ∂G/∂ε (ε, β)[δε].
+    /// ∂G/∂ε (ε, β)\[δε\].
     fn strain_derivative(
         &self,
         strain: &Tensor<D>,

@@ -1,5 +1,5 @@
 //! Manufactured cases as data: the TOML case file, its validation, and its translation into the
-//! solver's [`Problem`](contact_damage::scheme::Problem) with source terms derived by
+//! solver's [`Problem`] with source terms derived by
 //! [`crate::manufactured`].
 //!
 //! A bad case file gets an error naming the file, the key and the problem.

@@ -40,7 +40,7 @@ pub struct Cli {
     /// Which studies to run (comma-separated: h, k, diagonal).
     #[arg(long, value_delimiter = ',', default_value = "h,k,diagonal")]
     pub studies: Vec<String>,
-    /// Output folder (default: reports/<case>/l<order>).
+    /// Output folder (default: `reports/<case>/l<order>`).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Worker threads (default: all cores).
