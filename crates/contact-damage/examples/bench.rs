@@ -35,6 +35,8 @@
 //! `reports/benchmark.md` of the workspace (`reports/benchmark-quick.md` with `--quick`, so a
 //! smoke test does not overwrite the full table), or to `--output PATH`.
 
+#[path = "common/report.rs"]
+mod report;
 use contact_damage::assembly::add_facet_integrals;
 use contact_damage::contact::{ContactNodes, ContactStatus};
 use contact_damage::damage::{assemble_damage_matrix, DamageOperator};
@@ -48,13 +50,14 @@ use contact_damage::ordering::{fill_reducing_node_order, NodeGraph};
 use contact_damage::scheme::{Data, Model, Problem, SchemeSettings, Simulation};
 use contact_damage::space::LagrangeSpace;
 use contact_damage::velocity::{VelocityData, VelocityOperator, VelocitySettings};
+use report::{cpu_model, fmt_s, load_average, utc_now, write_atomically};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::io::Read;
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode, Stdio};
 use std::sync::Arc;
-use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use std::time::{Duration, Instant};
 
 /// Sizes of the full benchmark: (dimension, cells per side).
 const FULL_CASES: [(usize, usize); 5] = [(2, 256), (2, 512), (2, 1024), (3, 16), (3, 32)];
@@ -592,48 +595,6 @@ fn measure<const D: usize>(cells: usize) -> contact_damage::Result<BTreeMap<Stri
     Ok(row)
 }
 
-/// UTC date and time from the system clock (civil-from-days, H. Hinnant's algorithm).
-fn utc_now() -> String {
-    let secs = SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map(|d| d.as_secs())
-        .unwrap_or(0);
-    let days = (secs / 86_400) as i64;
-    let rem = secs % 86_400;
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    format!(
-        "{year:04}-{month:02}-{day:02} {:02}:{:02} UTC",
-        rem / 3600,
-        (rem % 3600) / 60
-    )
-}
-
-fn cpu_model() -> String {
-    std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|text| {
-            text.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split_once(':'))
-                .map(|(_, v)| v.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown CPU".into())
-}
-
-fn load_average() -> String {
-    std::fs::read_to_string("/proc/loadavg")
-        .map(|t| t.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
-        .unwrap_or_else(|_| "unknown".into())
-}
-
 fn field(row: &BTreeMap<String, String>, key: &str) -> f64 {
     row.get(key)
         .and_then(|v| v.parse().ok())
@@ -642,18 +603,6 @@ fn field(row: &BTreeMap<String, String>, key: &str) -> f64 {
 
 fn text<'a>(row: &'a BTreeMap<String, String>, key: &str) -> &'a str {
     row.get(key).map(String::as_str).unwrap_or("?")
-}
-
-fn fmt_s(value: f64) -> String {
-    if value.is_nan() {
-        "?".into()
-    } else if value < 0.01 {
-        format!("{value:.4}")
-    } else if value < 10.0 {
-        format!("{value:.3}")
-    } else {
-        format!("{value:.1}")
-    }
 }
 
 fn fmt_count(value: f64) -> String {
@@ -864,28 +813,4 @@ fn fmt_s_or_count(value: f64, unit: &str) -> String {
     } else {
         fmt_count(value)
     }
-}
-
-/// Writes `contents` to a temporary file beside `path` and renames it over `path`.
-fn write_atomically(path: &Path, contents: &str) -> Result<(), String> {
-    let directory = path
-        .parent()
-        .ok_or_else(|| format!("{} has no parent directory", path.display()))?;
-    std::fs::create_dir_all(directory)
-        .map_err(|e| format!("cannot create {}: {e}", directory.display()))?;
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| format!("{} has no file name", path.display()))?
-        .to_string_lossy();
-    let temporary = directory.join(format!(".{file_name}.tmp{}", std::process::id()));
-    std::fs::write(&temporary, contents)
-        .map_err(|e| format!("cannot write {}: {e}", temporary.display()))?;
-    std::fs::rename(&temporary, path).map_err(|e| {
-        let _ = std::fs::remove_file(&temporary);
-        format!(
-            "cannot rename {} to {}: {e}",
-            temporary.display(),
-            path.display()
-        )
-    })
 }

@@ -32,17 +32,20 @@
 //! The markdown table goes to stdout and, written atomically (temporary file + rename), to
 //! `reports/benchmark_components.md` of the workspace, or to `--output PATH`.
 
+#[path = "common/report.rs"]
+mod report;
 use contact_damage::friction::{CondensedFriction, FrictionSettings};
 use contact_damage::linalg::multiply;
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::obstacle::{box_qp_kkt_residual, BoxQpSettings, BoxQpSolver, BoxQpStats};
 use faer::sparse::{SparseColMat, Triplet};
 use faer::Mat;
+use report::{cpu_model, fmt_s, load_average, utc_now, write_atomically};
 use std::f64::consts::PI;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::{Instant, SystemTime, UNIX_EPOCH};
+use std::time::Instant;
 
 /// Sparse matrix of the box QP.
 type SparseMatrix = SparseColMat<usize, f64>;
@@ -571,47 +574,6 @@ fn bench_box_qp(side: usize, repeats: usize) -> Result<Vec<Row>, String> {
 // ---------------------------------------------------------------------------------------------
 // Report
 
-fn utc_now() -> String {
-    let secs = SystemTime::now()
-        .duration_since(UNIX_EPOCH)
-        .map(|d| d.as_secs())
-        .unwrap_or(0);
-    let days = (secs / 86_400) as i64;
-    let rem = secs % 86_400;
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    format!(
-        "{year:04}-{month:02}-{day:02} {:02}:{:02} UTC",
-        rem / 3600,
-        (rem % 3600) / 60
-    )
-}
-
-fn cpu_model() -> String {
-    std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|text| {
-            text.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split_once(':'))
-                .map(|(_, v)| v.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown CPU".into())
-}
-
-fn load_average() -> String {
-    std::fs::read_to_string("/proc/loadavg")
-        .map(|t| t.split_whitespace().take(3).collect::<Vec<_>>().join(" "))
-        .unwrap_or_else(|_| "unknown".into())
-}
-
 fn count(value: usize) -> String {
     count_f(value as f64)
 }
@@ -623,16 +585,6 @@ fn count_f(value: f64) -> String {
         format!("{:.1} k", value / 1e3)
     } else {
         format!("{value:.0}")
-    }
-}
-
-fn fmt_s(value: f64) -> String {
-    if value < 0.01 {
-        format!("{value:.4}")
-    } else if value < 10.0 {
-        format!("{value:.3}")
-    } else {
-        format!("{value:.1}")
     }
 }
 
@@ -705,28 +657,4 @@ fn render(command: &str, rows: &[Row], repeats: usize, load_start: &str) -> Stri
          checks excluded), best and worst of {repeats} runs on identical data.\n"
     );
     out
-}
-
-/// Writes `contents` to a temporary file beside `path` and renames it over `path`.
-fn write_atomically(path: &Path, contents: &str) -> Result<(), String> {
-    let directory = path
-        .parent()
-        .ok_or_else(|| format!("{} has no parent directory", path.display()))?;
-    std::fs::create_dir_all(directory)
-        .map_err(|e| format!("cannot create {}: {e}", directory.display()))?;
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| format!("{} has no file name", path.display()))?
-        .to_string_lossy();
-    let temporary = directory.join(format!(".{file_name}.tmp{}", std::process::id()));
-    std::fs::write(&temporary, contents)
-        .map_err(|e| format!("cannot write {}: {e}", temporary.display()))?;
-    std::fs::rename(&temporary, path).map_err(|e| {
-        let _ = std::fs::remove_file(&temporary);
-        format!(
-            "cannot rename {} to {}: {e}",
-            temporary.display(),
-            path.display()
-        )
-    })
 }
