@@ -3,12 +3,14 @@
 //! the body pointing into it; the first two load periods of the example converge, the contact
 //! zone closes under the load and opens again without it, and damage starts on the hole.
 
+mod common;
+
+use common::{expected_contact_nodes, facets_of, history_value, scratch};
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::Simulation;
 use simulate::history::HISTORY_FILE;
 use simulate::problem::ProblemSetup;
 use simulate::run::{read_saved_state, RunOptions};
-use std::collections::BTreeSet;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
@@ -27,14 +29,6 @@ fn example() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/plate_with_hole_2d.toml")
 }
 
-/// A fresh folder under cargo's per-test temporary directory.
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("gmsh-example-{name}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
 fn distance_to_centre(x: &[f64; 2]) -> f64 {
     (x[0] - HOLE_CENTRE[0]).hypot(x[1] - HOLE_CENTRE[1])
 }
@@ -45,12 +39,6 @@ fn facet_midpoint(mesh: &Mesh<2>, facet: usize) -> [f64; 2] {
         mesh.vertex(mesh.facet(facet)[1]),
     ];
     [0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1])]
-}
-
-fn facets_of(mesh: &Mesh<2>, part: BoundaryPart) -> Vec<usize> {
-    (0..mesh.num_facets())
-        .filter(|&f| mesh.facet_part(f) == part)
-        .collect()
 }
 
 fn total_length(mesh: &Mesh<2>, facets: &[usize]) -> f64 {
@@ -148,21 +136,6 @@ fn example_mesh_has_the_hole_and_the_groups_on_their_sides() {
     );
 }
 
-/// Column `name` of the history at `step` (columns looked up by the header).
-fn history_value(history: &str, step: usize, name: &str) -> f64 {
-    let mut lines = history.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let column = header
-        .iter()
-        .position(|&c| c == name)
-        .unwrap_or_else(|| panic!("no column {name}"));
-    let row = lines
-        .map(|line| line.split(',').collect::<Vec<_>>())
-        .find(|fields| fields[0] == step.to_string())
-        .unwrap_or_else(|| panic!("no row for step {step}"));
-    row[column].parse().unwrap()
-}
-
 #[test]
 fn first_two_load_periods_converge_close_and_open_contact_and_damage_the_hole() {
     let setup = ProblemSetup::<2>::from_path(&example()).unwrap();
@@ -172,23 +145,14 @@ fn first_two_load_periods_converge_close_and_open_contact_and_damage_the_hole() 
     let mesh = setup.problem.mesh.clone();
 
     // the contact nodes are the vertices of Γ3 less the clamped corner
-    let vertices_of = |part: BoundaryPart| -> BTreeSet<usize> {
-        facets_of(&mesh, part)
-            .into_iter()
-            .flat_map(|f| mesh.facet(f).to_vec())
-            .collect()
-    };
-    let clamped = vertices_of(BoundaryPart::Dirichlet);
-    let expected_contact_nodes = vertices_of(BoundaryPart::Contact)
-        .difference(&clamped)
-        .count();
+    let expected_contact_nodes = expected_contact_nodes(&mesh);
     let contact_nodes = Simulation::new(setup.problem.clone())
         .unwrap()
         .contact()
         .len();
     assert_eq!(contact_nodes, expected_contact_nodes);
 
-    let out = scratch("run");
+    let out = scratch("gmsh-example-run");
     let outcome = simulate::run::run(
         &setup,
         &RunOptions {

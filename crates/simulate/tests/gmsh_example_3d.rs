@@ -4,13 +4,15 @@
 //! the pictures (y = 0.5 on Γ3) carries the nodes the generator put there; the first load
 //! period up to its peak converges and presses the whole of Γ3 onto the foundation.
 
+mod common;
+
+use common::{expected_contact_nodes, facets_of, history_value, scratch};
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::Simulation;
 use simulate::history::HISTORY_FILE;
 use simulate::pictures::{ContactLine, CONTACT_HISTORY_FILE};
 use simulate::problem::ProblemSetup;
 use simulate::run::RunOptions;
-use std::collections::BTreeSet;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
@@ -30,14 +32,6 @@ const ON_GEOMETRY: f64 = 1e-9;
 
 fn example() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/bracket_3d.toml")
-}
-
-/// A fresh folder under cargo's per-test temporary directory.
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("gmsh-example-3d-{name}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 /// Distance of x to the nearer hole axis, and that axis.
@@ -61,12 +55,6 @@ fn centroid(points: &[[f64; 3]]) -> [f64; 3] {
         }
     }
     sum
-}
-
-fn facets_of(mesh: &Mesh<3>, part: BoundaryPart) -> Vec<usize> {
-    (0..mesh.num_facets())
-        .filter(|&f| mesh.facet_part(f) == part)
-        .collect()
 }
 
 fn total_area(mesh: &Mesh<3>, facets: &[usize]) -> f64 {
@@ -205,21 +193,6 @@ fn contact_line_is_the_structured_midline_of_the_contact_face() {
     }
 }
 
-/// Column `name` of the history at `step` (columns looked up by the header).
-fn history_value(history: &str, step: usize, name: &str) -> f64 {
-    let mut lines = history.lines();
-    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
-    let column = header
-        .iter()
-        .position(|&c| c == name)
-        .unwrap_or_else(|| panic!("no column {name}"));
-    let row = lines
-        .map(|line| line.split(',').collect::<Vec<_>>())
-        .find(|fields| fields[0] == step.to_string())
-        .unwrap_or_else(|| panic!("no row for step {step}"));
-    row[column].parse().unwrap()
-}
-
 #[test]
 fn first_load_peak_converges_and_presses_the_contact_face() {
     let setup = ProblemSetup::<3>::from_path(&example()).unwrap();
@@ -230,23 +203,14 @@ fn first_load_peak_converges_and_presses_the_contact_face() {
     let mesh = setup.problem.mesh.clone();
 
     // the contact nodes are the vertices of Γ3 less those on the clamped face
-    let vertices_of = |part: BoundaryPart| -> BTreeSet<usize> {
-        facets_of(&mesh, part)
-            .into_iter()
-            .flat_map(|f| mesh.facet(f).to_vec())
-            .collect()
-    };
-    let clamped = vertices_of(BoundaryPart::Dirichlet);
-    let expected_contact_nodes = vertices_of(BoundaryPart::Contact)
-        .difference(&clamped)
-        .count();
+    let expected_contact_nodes = expected_contact_nodes(&mesh);
     let contact_nodes = Simulation::new(setup.problem.clone())
         .unwrap()
         .contact()
         .len();
     assert_eq!(contact_nodes, expected_contact_nodes);
 
-    let out = scratch("run");
+    let out = scratch("gmsh-example-3d-run");
     let outcome = simulate::run::run(
         &setup,
         &RunOptions {
@@ -299,7 +263,7 @@ fn velocity_step_meets_its_tolerance_when_the_friction_rhs_dwarfs_the_forces() {
     let text = std::fs::read_to_string(example()).unwrap();
     let variant = text.replace("stiffness = 4.0", "stiffness = 5.0");
     assert_ne!(variant, text);
-    let dir = scratch("stiff-contact");
+    let dir = scratch("gmsh-example-3d-stiff-contact");
     // the mesh is found next to the problem file
     std::fs::copy(
         example().with_file_name("bracket_3d.msh"),

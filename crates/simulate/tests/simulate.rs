@@ -4,19 +4,14 @@
 //! to the binary) and resumed run gives bitwise the same result as an uninterrupted one; a
 //! changed problem is not resumed; bad problem files name the key.
 
+mod common;
+
+use common::scratch;
 use simulate::problem::ProblemSetup;
 use simulate::run::{read_saved_state, RunOptions};
 use std::path::{Path, PathBuf};
 
 const EXAMPLE_2D: &str = include_str!("../examples/rectangle_2d.toml");
-
-/// A fresh folder under cargo's per-test temporary directory.
-fn scratch(name: &str) -> PathBuf {
-    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("simulate-{name}"));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 /// The 2D example on an 8 × 4 mesh with 12 steps, saved every 4, written into `dir`.
 fn tiny_example(dir: &Path) -> PathBuf {
@@ -70,7 +65,7 @@ fn piece_sizes(document: &roxmltree::Document) -> (usize, usize) {
 
 #[test]
 fn output_is_read_back_with_fields_sizes_and_contact_status() {
-    let dir = scratch("output");
+    let dir = scratch("simulate-output");
     let problem = tiny_example(&dir);
     let out = dir.join("out");
     let outcome = simulate::run_file(&problem, &quiet(&out)).unwrap();
@@ -200,7 +195,7 @@ fn output_is_read_back_with_fields_sizes_and_contact_status() {
 
 #[test]
 fn resumed_run_equals_uninterrupted_run_bitwise() {
-    let dir = scratch("resume");
+    let dir = scratch("simulate-resume");
     let problem = tiny_example(&dir);
     let whole = dir.join("whole");
     let split = dir.join("split");
@@ -268,7 +263,7 @@ fn resumed_run_equals_uninterrupted_run_bitwise() {
 
 #[test]
 fn resume_and_restart_refuse_mismatches() {
-    let dir = scratch("refuse");
+    let dir = scratch("simulate-refuse");
     let problem = tiny_example(&dir);
     let out = dir.join("out");
     // nothing to resume
@@ -373,7 +368,7 @@ fn resume_and_restart_refuse_mismatches() {
 fn interrupt_flag_saves_the_step_in_progress_and_resume_continues_bitwise() {
     use std::sync::atomic::AtomicBool;
     use std::sync::Arc;
-    let dir = scratch("interrupt");
+    let dir = scratch("simulate-interrupt");
     let problem = tiny_example(&dir);
     let whole = dir.join("whole");
     let split = dir.join("split");
@@ -430,7 +425,7 @@ fn interrupt_flag_saves_the_step_in_progress_and_resume_continues_bitwise() {
 fn ctrl_c_saves_the_step_in_progress_and_exits_130() {
     use std::process::{Command, Stdio};
     use std::time::{Duration, Instant};
-    let dir = scratch("sigint");
+    let dir = scratch("simulate-sigint");
     // long enough (20000 steps, ≈ 30 s) not to finish before the signal arrives
     let text = std::fs::read_to_string(tiny_example(&dir))
         .unwrap()
@@ -589,7 +584,7 @@ fn bad_problem_files_name_the_key() {
 
 #[test]
 fn gmsh_problem_runs_on_a_committed_mesh() {
-    let dir = scratch("gmsh");
+    let dir = scratch("simulate-gmsh");
     let mesh =
         Path::new(env!("CARGO_MANIFEST_DIR")).join("../contact-damage/tests/meshes/square.msh");
     std::fs::copy(mesh, dir.join("square.msh")).unwrap();
@@ -620,7 +615,7 @@ fn gmsh_problem_runs_on_a_committed_mesh() {
 
 #[test]
 fn pictures_show_damage_on_every_cell_and_the_contact_history_with_legends() {
-    let dir = scratch("pictures");
+    let dir = scratch("simulate-pictures");
     let problem = tiny_example(&dir);
     let out = dir.join("out");
     simulate::run_file(&problem, &quiet(&out)).unwrap();
