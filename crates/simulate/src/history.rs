@@ -319,13 +319,14 @@ pub fn truncate_history(path: &Path, step: usize) -> Result<(), VerifyError> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use contact_damage::mesh::{BoundaryPart::*, Mesh};
     use contact_damage::quadrature::QuadratureRule;
     use std::sync::Arc;
 
-    fn unit_square_space(degree: usize) -> LagrangeSpace<2> {
+    /// P_l on (0, 1) × (0, 2), 3 × 4 cells, clamped at x = 0, contact at y = 0.
+    pub(crate) fn unit_square_space(degree: usize) -> LagrangeSpace<2> {
         let mesh = Mesh::box_mesh(
             [0.0, 0.0],
             [1.0, 2.0],
@@ -336,7 +337,9 @@ mod tests {
         LagrangeSpace::new(Arc::new(mesh), degree).unwrap()
     }
 
-    fn setup() -> ProblemSetup<2> {
+    /// A problem on the mesh of [`unit_square_space`]: linear viscosity (η, ζ) = (0.5, 0.25),
+    /// damaged Hooke (μ, λ) = (2, 3).
+    pub(crate) fn setup() -> ProblemSetup<2> {
         let text = r#"
             dim = 2
             degree = 1

@@ -598,38 +598,11 @@ fn remove_old_output(dir: &Path) -> Result<(), VerifyError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use contact_damage::mesh::{BoundaryPart::*, Mesh};
-    use std::sync::Arc;
-
-    fn unit_square_space(degree: usize) -> LagrangeSpace<2> {
-        let mesh = Mesh::box_mesh(
-            [0.0, 0.0],
-            [1.0, 2.0],
-            [3, 4],
-            [[Dirichlet, Neumann], [Contact, Neumann]],
-        )
-        .unwrap();
-        LagrangeSpace::new(Arc::new(mesh), degree).unwrap()
-    }
+    use crate::history::tests::{setup, unit_square_space};
 
     #[test]
     fn cell_stress_is_viscous_plus_damaged_elastic_stress() {
-        let text = r#"
-            dim = 2
-            degree = 1
-            final_time = 1.0
-            steps = 1
-            [mesh]
-            box = { lower = [0.0, 0.0], upper = [1.0, 2.0], cells = [3, 4], sides = { x_min = "clamped", y_min = "contact" } }
-            [laws]
-            viscosity = { kind = "linear", shear = 0.5, bulk = 0.25 }
-            elasticity = { kind = "damaged_hooke", shear_modulus = 2.0, lame_lambda = 3.0 }
-            damage_source = { kind = "fremond", lambda_d = 0.1, lambda_w = 0.05, damage_floor = 0.1, strain_energy_cap = 10.0 }
-            contact = { stiffness = 10.0, friction = 0.4 }
-            damage_diffusion = 0.1
-        "#;
-        let file = verify::case::parse_toml(text, "inline").unwrap();
-        let setup = ProblemSetup::<2>::new(file, Path::new("inline.toml")).unwrap();
+        let setup = setup();
         let space = unit_square_space(2);
         // affine fields: ε(u) = [[0.1, 0.05], [0.05, -0.2]], ε(v) = [[0, 0.5], [0.5, 0.3]]
         let state = State {
