@@ -5,12 +5,11 @@
 
 mod common;
 
-use common::{expected_contact_nodes, facets_of, history_value, scratch};
+use common::{checked_run, expected_contact_nodes, facets_of, history_value, scratch};
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::Simulation;
-use simulate::history::HISTORY_FILE;
 use simulate::problem::ProblemSetup;
-use simulate::run::{read_saved_state, RunOptions};
+use simulate::run::read_saved_state;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
@@ -153,24 +152,7 @@ fn first_two_load_periods_converge_close_and_open_contact_and_damage_the_hole() 
     assert_eq!(contact_nodes, expected_contact_nodes);
 
     let out = scratch("gmsh-example-run");
-    let outcome = simulate::run::run(
-        &setup,
-        &RunOptions {
-            out: Some(out.clone()),
-            quiet: true,
-            until_step: Some(100),
-            ..RunOptions::default()
-        },
-    )
-    .unwrap();
-    assert_eq!(outcome.last_step, 100);
-    assert!(
-        outcome.max_kkt[0] < 1e-9 && outcome.max_kkt[1] < 1e-9,
-        "KKT residuals {:?}",
-        outcome.max_kkt
-    );
-
-    let history = std::fs::read_to_string(out.join(HISTORY_FILE)).unwrap();
+    let history = checked_run(&setup, &out, 100);
     let count = |step, name| history_value(&history, step, name) as usize;
     for step in 1..=100 {
         assert_eq!(

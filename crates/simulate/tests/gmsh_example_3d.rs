@@ -6,7 +6,7 @@
 
 mod common;
 
-use common::{expected_contact_nodes, facets_of, history_value, scratch};
+use common::{checked_run, expected_contact_nodes, facets_of, history_value, scratch};
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::Simulation;
 use simulate::history::HISTORY_FILE;
@@ -211,24 +211,7 @@ fn first_load_peak_converges_and_presses_the_contact_face() {
     assert_eq!(contact_nodes, expected_contact_nodes);
 
     let out = scratch("gmsh-example-3d-run");
-    let outcome = simulate::run::run(
-        &setup,
-        &RunOptions {
-            out: Some(out.clone()),
-            quiet: true,
-            until_step: Some(peak),
-            ..RunOptions::default()
-        },
-    )
-    .unwrap();
-    assert_eq!(outcome.last_step, peak);
-    assert!(
-        outcome.max_kkt[0] < 1e-9 && outcome.max_kkt[1] < 1e-9,
-        "KKT residuals {:?}",
-        outcome.max_kkt
-    );
-
-    let history = std::fs::read_to_string(out.join(HISTORY_FILE)).unwrap();
+    let history = checked_run(&setup, &out, peak);
     let count = |step, name| history_value(&history, step, name) as usize;
     for step in 1..=peak {
         assert_eq!(

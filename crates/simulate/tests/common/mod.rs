@@ -50,3 +50,29 @@ pub fn history_value(history: &str, step: usize, name: &str) -> f64 {
         .unwrap_or_else(|| panic!("no row for step {step}"));
     row[column].parse().unwrap()
 }
+
+/// Runs `setup` quietly into `out` up to step `until`, asserts that every step converged with
+/// KKT residuals below 1e-9, and returns the text of `history.csv`.
+pub fn checked_run<const D: usize>(
+    setup: &simulate::problem::ProblemSetup<D>,
+    out: &Path,
+    until: usize,
+) -> String {
+    let outcome = simulate::run::run(
+        setup,
+        &simulate::run::RunOptions {
+            out: Some(out.to_path_buf()),
+            quiet: true,
+            until_step: Some(until),
+            ..Default::default()
+        },
+    )
+    .unwrap();
+    assert_eq!(outcome.last_step, until);
+    assert!(
+        outcome.max_kkt[0] < 1e-9 && outcome.max_kkt[1] < 1e-9,
+        "KKT residuals {:?}",
+        outcome.max_kkt
+    );
+    std::fs::read_to_string(out.join(simulate::history::HISTORY_FILE)).unwrap()
+}
