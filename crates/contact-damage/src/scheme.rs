@@ -147,6 +147,11 @@ pub struct RunSummary {
     pub max_damage_kkt: f64,
     /// Newton iterations of all velocity steps.
     pub velocity_newton_iterations: usize,
+    /// Largest number of Newton iterations of one velocity step.
+    pub max_velocity_newton_iterations: usize,
+    /// The KKT residual history of the velocity step that took the most Newton iterations
+    /// (the first such step).
+    pub slowest_velocity_history: Vec<f64>,
     /// Semismooth Newton iterations of the friction problems.
     pub friction_iterations: usize,
     /// Active-set iterations of all damage steps.
@@ -471,6 +476,12 @@ impl<const D: usize> Simulation<D> {
             summary.max_velocity_kkt = summary.max_velocity_kkt.max(velocity.stats.kkt_residual);
             summary.max_damage_kkt = summary.max_damage_kkt.max(damage.stats.kkt_residual);
             summary.velocity_newton_iterations += velocity.stats.newton_iterations;
+            if velocity.stats.newton_iterations > summary.max_velocity_newton_iterations {
+                summary.max_velocity_newton_iterations = velocity.stats.newton_iterations;
+                summary
+                    .slowest_velocity_history
+                    .clone_from(&velocity.stats.residual_history);
+            }
             summary.friction_iterations += velocity.stats.friction_iterations;
             summary.damage_iterations += damage.stats.iterations;
             summary.velocity_factorizations += velocity.stats.factorizations;

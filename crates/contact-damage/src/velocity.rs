@@ -66,6 +66,8 @@ pub struct VelocityStats {
     pub factorizations: usize,
     /// Relative KKT residual of (5.1) on the full system, see [`VelocityOperator::kkt_residual`].
     pub kkt_residual: f64,
+    /// The relative KKT residual after each outer iteration (the last entry is `kkt_residual`).
+    pub residual_history: Vec<f64>,
 }
 
 /// The data of one velocity step in Cartesian node-major form.
@@ -716,6 +718,7 @@ impl<const D: usize> VelocityOperator<D> {
                 });
             }
         }
+        stats.residual_history = history;
         let status = self
             .contact
             .nodes
