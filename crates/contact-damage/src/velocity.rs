@@ -8,13 +8,41 @@
 //! (Φ the potential of 𝒜, F the load of the step). Unknowns are nodal velocities, expressed in
 //! the frame (ν_a, t_1, …) at contact nodes; clamped nodes (Γ1) keep identity rows.
 //!
-//! **Algorithm.** Proximal Newton: at an iterate v_k, the smooth part is replaced by its
-//! second-order model with the tangent matrix H_k; the nonsmooth model problem is condensed
-//! exactly onto the tangential contact unknowns c with the Schur complement
-//! S = (E_cᵀ H_k^{-1} E_c)^{-1} and solved exactly by [`crate::friction`]; the step is accepted
-//! by an Armijo line search on J. For a linear 𝒜 the model is J itself, so one iteration
-//! solves (5.1) exactly, and H, its Cholesky factor and S are computed once per run and reused
-//! in every time step (two sparse solves and one small dense problem per step).
+//! **Algorithm.** Proximal Newton, a generalized Newton method on the whole nonsmooth system: at
+//! an iterate v_k the smooth part is replaced by its second-order model with the exact tangent
+//! matrix H_k = ∫ d𝒜(ε(v_k)) assembled at v_k, and the nonsmooth model problem
+//! min ½ dᵀH_k d + ⟨N(v_k) − F, d⟩ + Σ_a w_a |v_τ(a) + d_τ(a)| is condensed exactly onto the
+//! tangential contact unknowns c with the Schur complement S = (E_cᵀ H_k^{-1} E_c)^{-1} and
+//! solved exactly by [`crate::friction`]. It is solved in increment form (right-hand side
+//! F − N(v_k), no cancellation against H_k v_k). For a linear 𝒜 the model is J itself, so one
+//! iteration solves (5.1) exactly, and H, its Cholesky factor and S are computed once per run
+//! and reused in every time step (two sparse solves and one small dense problem per step).
+//!
+//! **Merit function and stop test (nonlinear 𝒜).** The KKT residual of an iterate v is computed
+//! from v alone: the multipliers are the best ones at v ([`VelocityOperator::best_multipliers`]:
+//! v_τ/|v_τ| at slipping nodes, the projection onto the unit ball of the tangential force
+//! imbalance at the others), so dual feasibility and complementarity hold exactly and the
+//! residual r(v) is the relative stationarity of [`VelocityOperator::kkt_residual`]. The
+//! iteration stops when r(v) ≤ 10⁻² × tolerance (head room under the certificate); the stop test
+//! and the reported residual are the same number.
+//!
+//! **Globalization.** A step v + α d, tried from α = 1 by halving, is accepted when either
+//! (a) r(v + αd) ≤ ½ min_{j ≤ k} r(v_j) (a new record of the residual by a fixed factor), or
+//! (b) the Armijo test J(v + αd) ≤ J(v) + σ α Δ, Δ = ⟨N(v) − F, d⟩ + Σ w_a(|v_τ + d_τ| − |v_τ|)
+//! < 0, holds, with J(v + αd) − J(v) summed cell by cell.
+//! Why both: (b) alone stalls at round-off, because near the solution the decrease of J is
+//! O(r²) and falls below the rounding error of J (≈ 1e-16 |J|) long before r reaches 1e-12:
+//! every step is then rejected (observed: residuals stuck near 1e-8 to 1e-10). Test (a) measures
+//! progress in the quantity that is certified and that Newton's method reduces quadratically,
+//! so in the region of fast convergence full steps are taken and the residual goes to the
+//! rounding level in a few iterations. Global convergence from any start: if (a) is used
+//! infinitely often, the record of r tends to 0 and, J being strongly convex, the record iterates
+//! converge to the solution (‖v − v*‖ ≤ C r(v)); otherwise, after the last use of (a), the
+//! iteration is the Armijo-damped proximal Newton method with a positive definite model, which
+//! converges globally for a strongly convex J (Lee, Sun & Saunders, SIAM J. Optim. 24, 2014).
+//! When no step passes either test, the iteration is at the rounding level: the step ends with
+//! its residual if that meets the certificate, else with a no-convergence error carrying the
+//! residual history.
 
 use crate::assembly::viscous_element_matrix;
 use crate::contact::{ContactNodes, ContactStatus};
@@ -406,8 +434,9 @@ impl<const D: usize> VelocityOperator<D> {
         Some(schur)
     }
 
-    /// Σ_K ∫ Φ(ε(v)) dx and the internal force vector ⟨𝒜ε(v), ε(φ_a e_i)⟩ in the system frame.
-    fn energy_and_force(&self, velocity_system: &[f64]) -> (f64, Vec<f64>) {
+    /// The cell energies ∫_K Φ(ε(v)) dx and the internal force vector ⟨𝒜ε(v), ε(φ_a e_i)⟩ in
+    /// the system frame.
+    fn energy_and_force(&self, velocity_system: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let cartesian = self.to_cartesian(velocity_system);
         let n_local = self.space.nodes_per_cell() * D;
         let n_cells = self.space.mesh().num_cells();
@@ -436,9 +465,9 @@ impl<const D: usize> VelocityOperator<D> {
                 }
             });
         let mut force = vec![0.0; self.size()];
-        let mut energy = 0.0;
+        let mut energy = vec![0.0; n_cells];
         for (cell, chunk) in locals.chunks(n_local + 1).enumerate() {
-            energy += chunk[n_local];
+            energy[cell] = chunk[n_local];
             for (a, &node) in self.space.cell_nodes(cell).iter().enumerate() {
                 for i in 0..D {
                     force[node * D + i] += chunk[a * D + i];
@@ -494,6 +523,18 @@ impl<const D: usize> VelocityOperator<D> {
         } else {
             self.energy_and_force(velocity_system).1
         };
+        self.kkt_residual_with_force(load_system, weights, velocity_system, multipliers, &force)
+    }
+
+    /// [`Self::kkt_residual`] with the internal force N(v) (system frame) already known.
+    fn kkt_residual_with_force(
+        &self,
+        load_system: &[f64],
+        weights: &[f64],
+        velocity_system: &[f64],
+        multipliers: &[f64],
+        force: &[f64],
+    ) -> f64 {
         let mut residual: Vec<f64> = force.iter().zip(load_system).map(|(n, f)| n - f).collect();
         for (node, _) in self.clamped.iter().enumerate().filter(|(_, &c)| c) {
             for i in 0..D {
@@ -576,149 +617,11 @@ impl<const D: usize> VelocityOperator<D> {
             load[node * D] -= self.contact.weights[k] * data.normal_pressure[k];
         }
         let weights = self.friction_weights(data.friction_bound);
-        let mut stats = VelocityStats::default();
-        let g = D - 1;
-        let mut multipliers = vec![0.0; k_count * g];
-        let linear = self.law.is_linear();
-        let mut velocity = self.to_system(start);
-        let mut history: Vec<f64> = Vec::new();
-        loop {
-            stats.newton_iterations += 1;
-            // the model: H (assembled at the current iterate for a nonlinear law) and its rhs
-            if !linear {
-                let needs = self.linearized_at.as_deref() != Some(velocity.as_slice());
-                if needs {
-                    self.matrix = self.assemble(Some(&velocity))?;
-                    self.factorize()?;
-                    stats.factorizations += 1;
-                    self.linearized_at = Some(velocity.clone());
-                }
-            } else if !self.solver.is_factorized() {
-                self.factorize()?;
-                stats.factorizations += 1;
-            }
-            // Φ-energy and internal force at the iterate, once per iteration (nonlinear 𝒜 only)
-            let (energy, force) = if linear {
-                (0.0, Vec::new())
-            } else {
-                self.energy_and_force(&velocity)
-            };
-            let model_rhs = if linear {
-                load.clone()
-            } else {
-                let hv = multiply(&self.matrix, &velocity);
-                hv.iter()
-                    .zip(&force)
-                    .zip(&load)
-                    .map(|((h, n), f)| h - (n - f))
-                    .collect()
-            };
-            // a linear 𝒜 is solved exactly by one model solve; further passes are iterative
-            // refinement against round-off (at most MAX_REFINEMENTS)
-            let base = (linear && stats.newton_iterations > 1).then_some(velocity.as_slice());
-            // A refinement pass also asks the condensed friction problem for more digits: its
-            // residual is relative to its own right-hand side r_c, which can exceed the forces
-            // of (5.1) by orders of magnitude (r_c is the force that would stop all sliding),
-            // so its default tolerance can leave the full KKT residual above `tolerance`.
-            let mut friction_settings = settings.friction;
-            if let (Some(_), Some(&reached)) = (base, history.last()) {
-                friction_settings.tolerance = (friction_settings.tolerance
-                    * (0.1 * settings.tolerance / reached))
-                    .clamp(MIN_FRICTION_TOLERANCE, friction_settings.tolerance);
-            }
-            let trial = self.solve_model(
-                &model_rhs,
-                &weights,
-                &velocity,
-                base,
-                &mut multipliers,
-                &friction_settings,
-                &mut stats,
-            );
-            let trial = match trial {
-                Ok(trial) => trial,
-                // a refinement pass whose friction problem stagnates at the rounding level
-                // ends the step with the velocity residual reached so far
-                Err(Error::NoConvergence { .. }) if base.is_some() => {
-                    return Err(Error::NoConvergence {
-                        solver: "velocity step (5.1), linear viscosity (with iterative refinement; the condensed friction problem reached its rounding level)",
-                        iterations: stats.newton_iterations,
-                        residual: stats.kkt_residual,
-                        tolerance: settings.tolerance,
-                        history: crate::error::History(history),
-                    })
-                }
-                Err(error) => return Err(error),
-            };
-            if linear {
-                velocity = trial;
-                stats.kkt_residual = self.kkt_residual(&load, &weights, &velocity, &multipliers);
-                history.push(stats.kkt_residual);
-                if stats.kkt_residual <= settings.tolerance {
-                    break;
-                }
-                if stats.newton_iterations <= MAX_REFINEMENTS {
-                    continue;
-                }
-                return Err(Error::NoConvergence {
-                    solver: "velocity step (5.1), linear viscosity (with iterative refinement)",
-                    iterations: stats.newton_iterations,
-                    residual: stats.kkt_residual,
-                    tolerance: settings.tolerance,
-                    history: crate::error::History(history),
-                });
-            }
-            // Armijo line search on J along v + α (trial − v)
-            let objective =
-                |v: &[f64], energy: f64| energy - dot(&load, v) + self.friction_term(&weights, v);
-            let current = objective(&velocity, energy);
-            let direction: Vec<f64> = trial.iter().zip(&velocity).map(|(t, v)| t - v).collect();
-            let predicted = dot(&force, &direction) - dot(&load, &direction)
-                + self.friction_term(&weights, &trial)
-                - self.friction_term(&weights, &velocity);
-            let mut step = 1.0;
-            let mut accepted = None;
-            for _ in 0..30 {
-                let candidate: Vec<f64> = velocity
-                    .iter()
-                    .zip(&direction)
-                    .map(|(v, d)| v + step * d)
-                    .collect();
-                let (candidate_energy, _) = self.energy_and_force(&candidate);
-                if objective(&candidate, candidate_energy)
-                    <= current + 1e-4 * step * predicted.min(0.0) + 1e-15 * current.abs()
-                {
-                    accepted = Some(candidate);
-                    break;
-                }
-                step *= 0.5;
-            }
-            let Some(next) = accepted else {
-                return Err(Error::NoConvergence {
-                    solver: "velocity step (5.1): line search",
-                    iterations: stats.newton_iterations,
-                    residual: *history.last().unwrap_or(&f64::INFINITY),
-                    tolerance: settings.tolerance,
-                    history: crate::error::History(history),
-                });
-            };
-            velocity = next;
-            stats.kkt_residual = self.kkt_residual(&load, &weights, &velocity, &multipliers);
-            history.push(stats.kkt_residual);
-            if stats.kkt_residual <= settings.tolerance && step == 1.0 {
-                break;
-            }
-            if stats.newton_iterations >= settings.max_newton {
-                return Err(Error::NoConvergence {
-                    solver: "velocity step (5.1), proximal Newton",
-                    iterations: stats.newton_iterations,
-                    residual: stats.kkt_residual,
-                    tolerance: settings.tolerance,
-                    history: crate::error::History(history),
-                });
-            }
-        }
-        stats.residual_history = history;
+        let (velocity, multipliers, stats) = if self.law.is_linear() {
+            self.solve_linear(&load, &weights, start, settings)?
+        } else {
+            self.solve_nonlinear(&load, &weights, start, settings)?
+        };
         let status = self
             .contact
             .nodes
@@ -742,11 +645,271 @@ impl<const D: usize> VelocityOperator<D> {
         })
     }
 
+    /// Linear 𝒜: the model is (5.1) itself, so one exact model solve with the factor of the run
+    /// solves the step; at most [`MAX_REFINEMENTS`] passes of iterative refinement follow when
+    /// round-off leaves the KKT residual above the tolerance.
+    fn solve_linear(
+        &mut self,
+        load: &[f64],
+        weights: &[f64],
+        start: &[f64],
+        settings: &VelocitySettings,
+    ) -> Result<(Vec<f64>, Vec<f64>, VelocityStats)> {
+        let mut stats = VelocityStats::default();
+        let mut multipliers = vec![0.0; self.contact.len() * (D - 1)];
+        let mut velocity = self.to_system(start);
+        let mut history: Vec<f64> = Vec::new();
+        loop {
+            stats.newton_iterations += 1;
+            if !self.solver.is_factorized() {
+                self.factorize()?;
+                stats.factorizations += 1;
+            }
+            let refinement = stats.newton_iterations > 1;
+            // A refinement pass also asks the condensed friction problem for more digits: its
+            // residual is relative to its own right-hand side r_c, which can exceed the forces
+            // of (5.1) by orders of magnitude (r_c is the force that would stop all sliding),
+            // so its default tolerance can leave the full KKT residual above `tolerance`.
+            let mut friction_settings = settings.friction;
+            let (rhs, base) = if let (true, Some(&reached)) = (refinement, history.last()) {
+                friction_settings.tolerance = (friction_settings.tolerance
+                    * (0.1 * settings.tolerance / reached))
+                    .clamp(MIN_FRICTION_TOLERANCE, friction_settings.tolerance);
+                let hv = multiply(&self.matrix, &velocity);
+                let residual: Vec<f64> = load.iter().zip(&hv).map(|(b, h)| b - h).collect();
+                (residual, Some(velocity.as_slice()))
+            } else {
+                (load.to_vec(), None)
+            };
+            let trial = self.solve_model(
+                &rhs,
+                weights,
+                &velocity,
+                base,
+                &mut multipliers,
+                &friction_settings,
+                &mut stats,
+            );
+            velocity = match trial {
+                Ok(trial) => trial,
+                // a refinement pass whose friction problem stagnates at the rounding level
+                // ends the step with the velocity residual reached so far
+                Err(Error::NoConvergence { .. }) if refinement => {
+                    return Err(Error::NoConvergence {
+                        solver: "velocity step (5.1), linear viscosity (with iterative refinement; the condensed friction problem reached its rounding level)",
+                        iterations: stats.newton_iterations,
+                        residual: stats.kkt_residual,
+                        tolerance: settings.tolerance,
+                        history: crate::error::History(history),
+                    })
+                }
+                Err(error) => return Err(error),
+            };
+            stats.kkt_residual = self.kkt_residual(load, weights, &velocity, &multipliers);
+            history.push(stats.kkt_residual);
+            if stats.kkt_residual <= settings.tolerance {
+                break;
+            }
+            if stats.newton_iterations > MAX_REFINEMENTS {
+                return Err(Error::NoConvergence {
+                    solver: "velocity step (5.1), linear viscosity (with iterative refinement)",
+                    iterations: stats.newton_iterations,
+                    residual: stats.kkt_residual,
+                    tolerance: settings.tolerance,
+                    history: crate::error::History(history),
+                });
+            }
+        }
+        stats.residual_history = history;
+        Ok((velocity, multipliers, stats))
+    }
+
+    /// Nonlinear 𝒜: globalized proximal Newton, see the module documentation. Stops when the
+    /// KKT residual of the iterate (multipliers from [`Self::best_multipliers`]) is at most
+    /// `NEWTON_HEADROOM × tolerance`; the reported residual is that same number.
+    fn solve_nonlinear(
+        &mut self,
+        load: &[f64],
+        weights: &[f64],
+        start: &[f64],
+        settings: &VelocitySettings,
+    ) -> Result<(Vec<f64>, Vec<f64>, VelocityStats)> {
+        let mut stats = VelocityStats::default();
+        let target = settings.tolerance * NEWTON_HEADROOM;
+        let mut velocity = self.to_system(start);
+        let mut point = self.evaluate(load, weights, &velocity);
+        let mut model_multipliers = point.multipliers.clone();
+        let mut history: Vec<f64> = Vec::new();
+        let mut best = point.residual;
+        let failure = |stats: &VelocityStats, history: &[f64], solver: &'static str| {
+            Error::NoConvergence {
+                solver,
+                iterations: stats.newton_iterations,
+                residual: history.last().copied().unwrap_or(f64::INFINITY),
+                tolerance: target,
+                history: crate::error::History(history.to_vec()),
+            }
+        };
+        while point.residual > target {
+            if stats.newton_iterations >= settings.max_newton {
+                if point.residual <= settings.tolerance {
+                    break; // the certificate holds; the head room was not reached in time
+                }
+                return Err(failure(
+                    &stats,
+                    &history,
+                    "velocity step (5.1), proximal Newton (iteration limit)",
+                ));
+            }
+            stats.newton_iterations += 1;
+            if self.linearized_at.as_deref() != Some(velocity.as_slice()) {
+                self.matrix = self.assemble(Some(&velocity))?;
+                self.factorize()?;
+                stats.factorizations += 1;
+                self.linearized_at = Some(velocity.clone());
+            }
+            // the Newton model around v in increment form: b − Hv = F − N(v)
+            let minus_gradient: Vec<f64> =
+                load.iter().zip(&point.force).map(|(f, n)| f - n).collect();
+            let mut friction_settings = settings.friction;
+            friction_settings.tolerance = (friction_settings.tolerance * NEWTON_HEADROOM)
+                .max(MIN_FRICTION_TOLERANCE)
+                .min(settings.friction.tolerance);
+            let mut solve = |friction_settings: &FrictionSettings, stats: &mut VelocityStats| {
+                self.solve_model(
+                    &minus_gradient,
+                    weights,
+                    &velocity,
+                    Some(&velocity),
+                    &mut model_multipliers,
+                    friction_settings,
+                    stats,
+                )
+            };
+            let trial = match solve(&friction_settings, &mut stats) {
+                Ok(trial) => trial,
+                // the tighter friction tolerance can lie below the rounding level of a
+                // badly conditioned S: retry with the configured one
+                Err(Error::NoConvergence { .. }) => solve(&settings.friction, &mut stats)?,
+                Err(error) => return Err(error),
+            };
+            let direction: Vec<f64> = trial.iter().zip(&velocity).map(|(t, v)| t - v).collect();
+            let friction_now = self.friction_term(weights, &velocity);
+            let predicted = -dot(&minus_gradient, &direction)
+                + self.friction_term(weights, &trial)
+                - friction_now;
+            let load_along = dot(load, &direction);
+            let mut step = 1.0;
+            let mut accepted = None;
+            for _ in 0..MAX_BACKTRACKS {
+                let candidate: Vec<f64> = if step == 1.0 {
+                    trial.clone()
+                } else {
+                    velocity
+                        .iter()
+                        .zip(&direction)
+                        .map(|(v, d)| v + step * d)
+                        .collect()
+                };
+                let evaluated = self.evaluate(load, weights, &candidate);
+                // J(candidate) − J(v), summed cell by cell against cancellation
+                let decrease = evaluated
+                    .cell_energy
+                    .iter()
+                    .zip(&point.cell_energy)
+                    .map(|(new, old)| new - old)
+                    .sum::<f64>()
+                    - step * load_along
+                    + self.friction_term(weights, &candidate)
+                    - friction_now;
+                if evaluated.residual <= FAST_REDUCTION * best
+                    || decrease <= ARMIJO * step * predicted.min(0.0) && predicted < 0.0
+                {
+                    accepted = Some((candidate, evaluated));
+                    break;
+                }
+                step *= 0.5;
+            }
+            let Some((next, evaluated)) = accepted else {
+                if point.residual <= settings.tolerance {
+                    break; // rounding level reached below the certificate
+                }
+                return Err(failure(
+                    &stats,
+                    &history,
+                    "velocity step (5.1), proximal Newton (no step decreases the KKT residual or J: rounding level)",
+                ));
+            };
+            velocity = next;
+            point = evaluated;
+            history.push(point.residual);
+            best = best.min(point.residual);
+        }
+        stats.kkt_residual = point.residual;
+        stats.residual_history = history;
+        Ok((velocity, point.multipliers, stats))
+    }
+
+    /// Cell energies, internal force, the best multipliers and the KKT residual at v.
+    fn evaluate(&self, load: &[f64], weights: &[f64], velocity: &[f64]) -> Iterate {
+        let (cell_energy, force) = self.energy_and_force(velocity);
+        let multipliers = self.best_multipliers(load, weights, velocity, &force);
+        let residual =
+            self.kkt_residual_with_force(load, weights, velocity, &multipliers, &force);
+        Iterate {
+            cell_energy,
+            force,
+            multipliers,
+            residual,
+        }
+    }
+
+    /// The multipliers that satisfy the KKT conditions of (5.1) best at a given v: at a node that
+    /// slips, λ_a = v_τ(a)/|v_τ(a)| (complementarity fixes it); at a node with v_τ(a) = 0, the
+    /// projection of −(N(v) − F)_τ(a)/w_a onto the unit ball (the λ of the subdifferential closest
+    /// to balancing the forces). With them, dual feasibility and complementarity hold exactly,
+    /// and the KKT residual is the stationarity alone: a function of v, used as merit function.
+    pub fn best_multipliers(
+        &self,
+        load_system: &[f64],
+        weights: &[f64],
+        velocity_system: &[f64],
+        force_system: &[f64],
+    ) -> Vec<f64> {
+        let g = D - 1;
+        let mut multipliers = vec![0.0; self.contact.len() * g];
+        for (k, &node) in self.contact.nodes.iter().enumerate() {
+            if weights[k] <= 0.0 {
+                continue;
+            }
+            let lambda = &mut multipliers[k * g..(k + 1) * g];
+            let tangential = &velocity_system[node * D + 1..node * D + D];
+            let speed = tangential.iter().map(|t| t * t).sum::<f64>().sqrt();
+            if speed > 0.0 {
+                for i in 0..g {
+                    lambda[i] = tangential[i] / speed;
+                }
+            } else {
+                for i in 0..g {
+                    let dof = node * D + 1 + i;
+                    lambda[i] = -(force_system[dof] - load_system[dof]) / weights[k];
+                }
+                let norm = lambda.iter().map(|l| l * l).sum::<f64>().sqrt();
+                if norm > 1.0 {
+                    lambda.iter_mut().for_each(|l| *l /= norm);
+                }
+            }
+        }
+        multipliers
+    }
+
     /// Exact solution of the model problem min ½ yᵀHy − bᵀy + Σ w_a |y_τ(a)| by condensation
     /// onto the tangential contact unknowns.
     ///
-    /// With `base = Some(v)` the two solves are done in iterative-refinement form,
-    /// v + H^{-1}(b − H v), which recovers the digits lost to round-off in the factor and in S.
+    /// With `base = Some(v)`, `rhs` is the residual b − Hv and the two solves are done in
+    /// correction form, y = v + H^{-1}(b − Hv − E_c W λ): this recovers the digits lost to
+    /// round-off in the factor and in S (iterative refinement of the linear step), and it is the
+    /// increment form of a Newton step, where b − Hv = F − N(v) is known without cancellation.
     #[allow(clippy::too_many_arguments)]
     fn solve_model(
         &self,
@@ -762,9 +925,7 @@ impl<const D: usize> VelocityOperator<D> {
             match base {
                 None => self.solver.solve(b),
                 Some(v) => {
-                    let hv = multiply(&self.matrix, v);
-                    let residual: Vec<f64> = b.iter().zip(&hv).map(|(b, h)| b - h).collect();
-                    let correction = self.solver.solve(&residual)?;
+                    let correction = self.solver.solve(b)?;
                     Ok(v.iter().zip(&correction).map(|(v, c)| v + c).collect())
                 }
             }
@@ -805,6 +966,25 @@ impl<const D: usize> VelocityOperator<D> {
 
 /// Passes of iterative refinement allowed after the exact solve of a linear velocity step.
 const MAX_REFINEMENTS: usize = 3;
+/// A nonlinear step iterates to `NEWTON_HEADROOM × tolerance` (1e-12 for the default 1e-10
+/// certificate), so that the certificate holds with two digits to spare.
+pub const NEWTON_HEADROOM: f64 = 1e-2;
+/// A Newton step (full or damped) is accepted when it lowers the best KKT residual so far by
+/// this factor (the region of fast convergence), whatever it does to J.
+const FAST_REDUCTION: f64 = 0.5;
+/// Armijo constant σ of the sufficient decrease J(v + αd) ≤ J(v) + σ α Δ.
+const ARMIJO: f64 = 1e-4;
+/// Halvings of the step before the line search gives up (2^-40 ≈ 1e-12).
+const MAX_BACKTRACKS: usize = 41;
+
+/// J's cell energies, the internal force, the best multipliers and the KKT residual at an
+/// iterate of the nonlinear velocity step.
+struct Iterate {
+    cell_energy: Vec<f64>,
+    force: Vec<f64>,
+    multipliers: Vec<f64>,
+    residual: f64,
+}
 /// Smallest tolerance a refinement pass asks of the condensed friction problem (relative to
 /// its right-hand side; its rounding level is about ε κ(S)).
 const MIN_FRICTION_TOLERANCE: f64 = 1e-15;
