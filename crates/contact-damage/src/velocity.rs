@@ -741,15 +741,14 @@ impl<const D: usize> VelocityOperator<D> {
         let mut model_multipliers = point.multipliers.clone();
         let mut history: Vec<f64> = Vec::new();
         let mut best = point.residual;
-        let failure = |stats: &VelocityStats, history: &[f64], solver: &'static str| {
-            Error::NoConvergence {
+        let failure =
+            |stats: &VelocityStats, history: &[f64], solver: &'static str| Error::NoConvergence {
                 solver,
                 iterations: stats.newton_iterations,
                 residual: history.last().copied().unwrap_or(f64::INFINITY),
                 tolerance: target,
                 history: crate::error::History(history.to_vec()),
-            }
-        };
+            };
         while point.residual > target {
             if stats.newton_iterations >= settings.max_newton {
                 if point.residual <= settings.tolerance {
@@ -795,8 +794,7 @@ impl<const D: usize> VelocityOperator<D> {
             };
             let direction: Vec<f64> = trial.iter().zip(&velocity).map(|(t, v)| t - v).collect();
             let friction_now = self.friction_term(weights, &velocity);
-            let predicted = -dot(&minus_gradient, &direction)
-                + self.friction_term(weights, &trial)
+            let predicted = -dot(&minus_gradient, &direction) + self.friction_term(weights, &trial)
                 - friction_now;
             let load_along = dot(load, &direction);
             let mut step = 1.0;
@@ -854,8 +852,7 @@ impl<const D: usize> VelocityOperator<D> {
     fn evaluate(&self, load: &[f64], weights: &[f64], velocity: &[f64]) -> Iterate {
         let (cell_energy, force) = self.energy_and_force(velocity);
         let multipliers = self.best_multipliers(load, weights, velocity, &force);
-        let residual =
-            self.kkt_residual_with_force(load, weights, velocity, &multipliers, &force);
+        let residual = self.kkt_residual_with_force(load, weights, velocity, &multipliers, &force);
         Iterate {
             cell_energy,
             force,
