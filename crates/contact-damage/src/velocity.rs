@@ -563,7 +563,7 @@ impl<const D: usize> VelocityOperator<D> {
             .map(|k| weights[k] * largest(&multipliers[k * g..(k + 1) * g]))
             .fold(0.0f64, f64::max);
         let scale = largest(load_system)
-            .max(largest(&force))
+            .max(largest(force))
             .max(friction_force)
             .max(f64::MIN_POSITIVE);
         let stationarity = residual.iter().fold(0.0f64, |m, r| m.max(r.abs())) / scale;
@@ -883,13 +883,13 @@ impl<const D: usize> VelocityOperator<D> {
             let tangential = &velocity_system[node * D + 1..node * D + D];
             let speed = tangential.iter().map(|t| t * t).sum::<f64>().sqrt();
             if speed > 0.0 {
-                for i in 0..g {
-                    lambda[i] = tangential[i] / speed;
+                for (l, t) in lambda.iter_mut().zip(tangential) {
+                    *l = t / speed;
                 }
             } else {
-                for i in 0..g {
+                for (i, l) in lambda.iter_mut().enumerate() {
                     let dof = node * D + 1 + i;
-                    lambda[i] = -(force_system[dof] - load_system[dof]) / weights[k];
+                    *l = -(force_system[dof] - load_system[dof]) / weights[k];
                 }
                 let norm = lambda.iter().map(|l| l * l).sum::<f64>().sqrt();
                 if norm > 1.0 {
