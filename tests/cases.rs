@@ -40,6 +40,8 @@ struct Zones {
     stick: usize,
     slip: usize,
     bound_active: usize,
+    /// Contact points where the friction bound vanishes, p_τ = 0 < p_ν ((1 − δ p_ν)₊ = 0, (2.12)).
+    frictionless: usize,
 }
 
 fn check_strong_form<const D: usize>(name: &str) -> Zones {
@@ -132,6 +134,9 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
         );
         let r_tangential = r - nu * r.dot(&nu);
         let slip = state.velocity - nu * state.velocity.dot(&nu);
+        if penetration > 0.0 && p_friction == 0.0 {
+            zones.frictionless += 1;
+        }
         if penetration <= 0.0 {
             zones.separation += 1;
             assert!(r_tangential.norm() < 1e-12 * scale);
@@ -192,6 +197,40 @@ fn zones3d_satisfies_its_strong_form_with_all_zones() {
         zones.separation > 0 && zones.stick > 0 && zones.slip > 0 && zones.bound_active > 0,
         "{zones:?}"
     );
+}
+
+/// The cases of the whole model (nonlinear viscosity, wear-modified bound) satisfy their strong
+/// form with all three contact zones and the active damage bound; the wear cases also have a
+/// contact zone where the friction bound (1 − δ p_ν)₊ vanishes.
+fn assert_all_zones(zones: &Zones) {
+    assert!(
+        zones.separation > 0 && zones.stick > 0 && zones.slip > 0 && zones.bound_active > 0,
+        "{zones:?}"
+    );
+}
+
+#[test]
+fn nonlinear_viscosity_cases_satisfy_their_strong_form_with_all_zones() {
+    for name in ["mild2d", "strong2d"] {
+        let zones = check_strong_form::<2>(name);
+        assert_all_zones(&zones);
+        assert_eq!(zones.frictionless, 0, "{name}: {zones:?}");
+    }
+    for name in ["mild3d", "strong3d"] {
+        let zones = check_strong_form::<3>(name);
+        assert_all_zones(&zones);
+        assert_eq!(zones.frictionless, 0, "{name}: {zones:?}");
+    }
+}
+
+#[test]
+fn wear_cases_satisfy_their_strong_form_with_a_frictionless_contact_zone() {
+    let zones = check_strong_form::<2>("wear2d");
+    assert_all_zones(&zones);
+    assert!(zones.frictionless > 0, "wear2d: {zones:?}");
+    let zones = check_strong_form::<3>("wear3d");
+    assert_all_zones(&zones);
+    assert!(zones.frictionless > 0, "wear3d: {zones:?}");
 }
 
 fn error_of(replace: &str, with: &str) -> String {

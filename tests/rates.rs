@@ -1,8 +1,9 @@
 //! CI rate assertions: reduced convergence studies (coarser levels than the default CLI study)
 //! for l = 1, 2 and d = 2, 3 on the built-in cases with separation, stick and slip zones and an
-//! active damage bound. Each study must pass its verdict (observed least-squares rate ≥ expected
+//! active damage bound: linear viscosity (zones2d/3d), the nonlinear viscosity of (3.4), mild
+//! and strong (mild2d/3d, strong2d/3d), and the wear-modified friction bound (2.12) (wear2d/3d). Each study must pass its verdict (observed least-squares rate ≥ expected
 //! − `RATE_TOLERANCE` for every component bounded by Theorem 5.2), every step's KKT residual
-//! must be below 1e-9, and case (b) must really show the three contact zones and the active bound.
+//! must be below 1e-9, and every case must really show the three contact zones and the active bound.
 
 use verify::case::{parse_case_file, Case, LevelStudy, TimeStudy};
 use verify::cli::BUILT_IN_CASES;
@@ -74,9 +75,9 @@ fn levels(cells: &[usize], steps: &[usize]) -> LevelStudy {
     }
 }
 
-#[test]
-fn rates_2d_order1() {
-    let case = case::<2>("zones2d");
+/// The reduced 2D studies of order 1 (h, diagonal, k) on a built-in 2D case.
+fn studies_2d_order1(name: &str) {
+    let case = case::<2>(name);
     assert_study(&level_study(&case, 1, StudyKind::H, &levels(&[4, 8, 16], &[2, 8, 32])).unwrap());
     assert_study(
         &level_study(
@@ -95,9 +96,9 @@ fn rates_2d_order1() {
     assert_study(&time_study(&case, 1, &k).unwrap());
 }
 
-#[test]
-fn rates_2d_order2() {
-    let case = case::<2>("zones2d");
+/// The reduced 2D studies of order 2 (h, diagonal, k) on a built-in 2D case.
+fn studies_2d_order2(name: &str) {
+    let case = case::<2>(name);
     assert_study(&level_study(&case, 2, StudyKind::H, &levels(&[2, 4, 8], &[4, 16, 64])).unwrap());
     assert_study(
         &level_study(
@@ -116,9 +117,9 @@ fn rates_2d_order2() {
     assert_study(&time_study(&case, 2, &k).unwrap());
 }
 
-#[test]
-fn rates_3d_order1() {
-    let case = case::<3>("zones3d");
+/// The reduced 3D studies of order 1 (h, diagonal, k) on a built-in 3D case.
+fn studies_3d_order1(name: &str) {
+    let case = case::<3>(name);
     assert_study(&level_study(&case, 1, StudyKind::H, &levels(&[3, 6], &[2, 8])).unwrap());
     assert_study(&level_study(&case, 1, StudyKind::Diagonal, &levels(&[3, 6], &[2, 4])).unwrap());
     let k = TimeStudy {
@@ -129,9 +130,9 @@ fn rates_3d_order1() {
     assert_study(&time_study(&case, 1, &k).unwrap());
 }
 
-#[test]
-fn rates_3d_order2() {
-    let case = case::<3>("zones3d");
+/// The reduced 3D studies of order 2 (h, k) on a built-in 3D case.
+fn studies_3d_order2(name: &str) {
+    let case = case::<3>(name);
     assert_study(&level_study(&case, 2, StudyKind::H, &levels(&[1, 2, 4], &[4, 16, 64])).unwrap());
     let k = TimeStudy {
         cells: 2,
@@ -139,4 +140,86 @@ fn rates_3d_order2() {
         reference_steps: 512,
     };
     assert_study(&time_study(&case, 2, &k).unwrap());
+}
+
+#[test]
+fn rates_2d_order1() {
+    studies_2d_order1("zones2d");
+}
+
+#[test]
+fn rates_2d_order2() {
+    studies_2d_order2("zones2d");
+}
+
+#[test]
+fn rates_3d_order1() {
+    studies_3d_order1("zones3d");
+}
+
+#[test]
+fn rates_3d_order2() {
+    studies_3d_order2("zones3d");
+}
+
+// The whole model: nonlinear viscosity (mild and strong) and the wear-modified bound (2.12).
+
+#[test]
+fn rates_mild_nonlinear_viscosity_2d_order1() {
+    studies_2d_order1("mild2d");
+}
+
+#[test]
+fn rates_mild_nonlinear_viscosity_2d_order2() {
+    studies_2d_order2("mild2d");
+}
+
+#[test]
+fn rates_strong_nonlinear_viscosity_2d_order1() {
+    studies_2d_order1("strong2d");
+}
+
+#[test]
+fn rates_strong_nonlinear_viscosity_2d_order2() {
+    studies_2d_order2("strong2d");
+}
+
+#[test]
+fn rates_wear_2d_order1() {
+    studies_2d_order1("wear2d");
+}
+
+#[test]
+fn rates_wear_2d_order2() {
+    studies_2d_order2("wear2d");
+}
+
+#[test]
+fn rates_mild_nonlinear_viscosity_3d_order1() {
+    studies_3d_order1("mild3d");
+}
+
+#[test]
+fn rates_mild_nonlinear_viscosity_3d_order2() {
+    studies_3d_order2("mild3d");
+}
+
+#[test]
+fn rates_strong_nonlinear_viscosity_3d_order1() {
+    studies_3d_order1("strong3d");
+}
+
+#[test]
+fn rates_strong_nonlinear_viscosity_3d_order2() {
+    studies_3d_order2("strong3d");
+}
+
+#[test]
+fn rates_wear_3d_order1() {
+    studies_3d_order1("wear3d");
+}
+
+#[test]
+fn rates_wear_3d_order2() {
+    studies_3d_order2("wear3d");
 }

@@ -8,7 +8,7 @@ use clap::Parser;
 use std::path::PathBuf;
 
 /// Built-in cases: (name, TOML text). The files live in `verification/`.
-pub const BUILT_IN_CASES: [(&str, &str); 4] = [
+pub const BUILT_IN_CASES: [(&str, &str); 10] = [
     ("slip2d", include_str!("../../../verification/slip2d.toml")),
     (
         "zones2d",
@@ -19,6 +19,18 @@ pub const BUILT_IN_CASES: [(&str, &str); 4] = [
         "zones3d",
         include_str!("../../../verification/zones3d.toml"),
     ),
+    ("mild2d", include_str!("../../../verification/mild2d.toml")),
+    (
+        "strong2d",
+        include_str!("../../../verification/strong2d.toml"),
+    ),
+    ("wear2d", include_str!("../../../verification/wear2d.toml")),
+    ("mild3d", include_str!("../../../verification/mild3d.toml")),
+    (
+        "strong3d",
+        include_str!("../../../verification/strong3d.toml"),
+    ),
+    ("wear3d", include_str!("../../../verification/wear3d.toml")),
 ];
 
 /// Manufactured-solution convergence verification of the contact-damage scheme (Theorem 5.2).
@@ -31,7 +43,7 @@ pub struct Cli {
     /// Space dimension of the default case (2 or 3); ignored with --case.
     #[arg(long, default_value_t = 2)]
     pub dim: usize,
-    /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d).
+    /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d, mild2d, strong2d, wear2d, mild3d, strong3d, wear3d).
     #[arg(long)]
     pub case: Option<String>,
     /// Use only the first (coarsest) N levels of every study.
