@@ -46,6 +46,96 @@ fn verify_writes_csv_json_and_svg_reports() {
 }
 
 #[test]
+fn verify_k_study_reports_newton_statistics_and_no_nan() {
+    let out = std::env::temp_dir().join(format!("verify-cli-k-{}", std::process::id()));
+    let output = verify()
+        .args(["--order", "1", "--levels", "2", "--studies", "h,k", "--out"])
+        .arg(&out)
+        .env("CI", "1")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let csv = std::fs::read_to_string(out.join("errors.csv")).unwrap();
+    let json_text = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    for (name, text) in [
+        ("stdout", stdout.as_ref()),
+        ("errors.csv", csv.as_str()),
+        ("summary.json", json_text.as_str()),
+    ] {
+        let lower = text.to_lowercase();
+        assert!(
+            !lower.contains("nan") && !lower.contains("inf"),
+            "{name} has a NaN or inf:\n{text}"
+        );
+    }
+    // terminal: the per-run columns show the Newton iterations per step, and the k-study
+    // prints no rates for the velocity error, which has no value against a discrete reference
+    assert!(stdout.contains("Newton m/M"), "{stdout}");
+    let k_table = &stdout[stdout.find("k-study").expect("k-study table")..];
+    assert!(!k_table.contains("velocity"), "{k_table}");
+
+    // errors.csv: the velocity cell of a k-study row is an em dash, a number elsewhere
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 4, "2 studies × 2 runs:\n{csv}");
+    for row in &rows {
+        let velocity = row[column("velocity")];
+        match row[column("study")] {
+            "k" => assert_eq!(velocity, "—"),
+            _ => assert!(velocity.parse::<f64>().unwrap() > 0.0),
+        }
+        let mean: f64 = row[column("mean_newton_iterations")].parse().unwrap();
+        let max: usize = row[column("max_newton_iterations")].parse().unwrap();
+        assert!(mean >= 1.0 && max as f64 >= mean, "{row:?}");
+    }
+
+    // summary.json: Newton iterations of (5.1) per step, and the slowest step's history
+    let json: serde_json::Value = serde_json::from_str(&json_text).unwrap();
+    let tolerance = contact_damage::velocity::VelocitySettings::default().tolerance;
+    let studies = json["studies"].as_array().unwrap();
+    assert_eq!(studies.len(), 2);
+    for study in studies {
+        let k_study = study["kind"] == "k";
+        for run in study["runs"].as_array().unwrap() {
+            let stats = &run["stats"];
+            let mean = stats["mean_newton_iterations"].as_f64().unwrap();
+            let max = stats["max_newton_iterations"].as_u64().unwrap();
+            let total = stats["newton_iterations"].as_u64().unwrap();
+            let steps = run["steps"].as_u64().unwrap();
+            assert!(mean >= 1.0 && max as f64 >= mean, "{stats}");
+            assert!(
+                (mean - total as f64 / steps as f64).abs() < 1e-12,
+                "{stats}"
+            );
+            let history = stats["slowest_newton_history"].as_array().unwrap();
+            assert_eq!(history.len() as u64, max, "{stats}");
+            let last = history.last().unwrap().as_f64().unwrap();
+            assert!(last <= tolerance, "{stats}");
+            assert_eq!(run["errors"]["velocity"].is_null(), k_study, "{run}");
+        }
+        let velocity = study["rates"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|r| r["component"] == "velocity")
+            .unwrap();
+        assert!(velocity["pass"].is_null());
+        if k_study {
+            assert!(velocity["least_squares"].is_null(), "{velocity}");
+            assert!(velocity["pairwise"][0].is_null(), "{velocity}");
+        }
+    }
+    std::fs::remove_dir_all(&out).ok();
+}
+
+#[test]
 fn verify_rejects_a_bad_case_file_with_its_name_and_key() {
     let dir = std::env::temp_dir().join(format!("verify-bad-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

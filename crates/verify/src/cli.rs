@@ -1,6 +1,7 @@
 //! The `verify` command line: runs the studies of a case and writes its reports.
 
 use crate::case::{parse_case_file, read_case_file, Case, CaseFile};
+use crate::output::format_or_dash;
 use crate::report::write_reports;
 use crate::study::{level_study, time_study, StudyKind, StudyResult};
 use crate::VerifyError;
@@ -137,18 +138,30 @@ pub fn run_studies<const D: usize>(
     Ok(results)
 }
 
-/// Prints a table of a study to stdout.
-pub fn print_study(study: &StudyResult) {
-    println!(
-        "\n{}-study, l = {}: rates in {} (expected {:.2}, verdict {})",
+/// `value` in scientific notation with `precision` digits, or `—` when it has no value.
+fn sci(value: f64, precision: usize) -> String {
+    format_or_dash(value, |v| format!("{v:.precision$e}"))
+}
+
+/// `value` with `precision` decimals, or `—` when it has no value.
+fn fixed(value: f64, precision: usize) -> String {
+    format_or_dash(value, |v| format!("{v:.precision$}"))
+}
+
+/// The table of a study, as printed by [`print_study`]: one line per run (errors, largest KKT
+/// residual, Newton iterations of one velocity step (5.1) as mean/max over the steps, wall
+/// time), then one line of rates per error component that has any. A missing value is `—`.
+pub fn study_table(study: &StudyResult) -> String {
+    let mut lines = vec![format!(
+        "{}-study, l = {}: rates in {} (expected {}, verdict {})",
         study.kind.name(),
         study.degree,
         study.variable,
-        study.expected_rate,
+        fixed(study.expected_rate, 2),
         if study.pass { "PASS" } else { "FAIL" }
-    );
-    println!(
-        "{:>6} {:>6} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>9} {:>7}",
+    )];
+    lines.push(format!(
+        "{:>6} {:>6} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>9} {:>11} {:>7}",
         "cells",
         "steps",
         "h",
@@ -159,38 +172,51 @@ pub fn print_study(study: &StudyResult) {
         "E_gradb",
         "E_total",
         "max KKT",
+        "Newton m/M",
         "time s"
-    );
+    ));
     for run in &study.runs {
-        println!(
-            "{:>6} {:>6} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>10.3e} {:>9.1e} {:>7.2}",
+        lines.push(format!(
+            "{:>6} {:>6} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>9} {:>11} {:>7}",
             run.cells,
             run.steps,
-            run.h,
-            run.k,
-            run.errors.displacement,
-            run.errors.difference_quotient,
-            run.errors.damage,
-            run.errors.damage_gradient,
-            run.errors.total,
-            run.stats.max_velocity_kkt.max(run.stats.max_damage_kkt),
-            run.stats.wall_seconds
-        );
+            sci(run.h, 3),
+            sci(run.k, 3),
+            sci(run.errors.displacement, 3),
+            sci(run.errors.difference_quotient, 3),
+            sci(run.errors.damage, 3),
+            sci(run.errors.damage_gradient, 3),
+            sci(run.errors.total, 3),
+            sci(run.stats.max_velocity_kkt.max(run.stats.max_damage_kkt), 1),
+            format!(
+                "{}/{}",
+                fixed(run.stats.mean_newton_iterations, 2),
+                run.stats.max_newton_iterations
+            ),
+            fixed(run.stats.wall_seconds, 2)
+        ));
     }
-    for rates in &study.rates {
-        let pairwise: Vec<String> = rates.pairwise.iter().map(|r| format!("{r:.2}")).collect();
-        println!(
-            "  {:<20} pairwise [{}]  least squares {:.3}{}",
+    // a component without any rate (the velocity error of a k-study) is left out
+    for rates in study.rates.iter().filter(|r| !r.is_missing()) {
+        let pairwise: Vec<String> = rates.pairwise.iter().map(|&r| fixed(r, 2)).collect();
+        lines.push(format!(
+            "  {:<20} pairwise [{}]  least squares {}{}",
             rates.component,
             pairwise.join(", "),
-            rates.least_squares,
+            fixed(rates.least_squares, 3),
             match rates.pass {
                 Some(true) => "  ok",
                 Some(false) => "  BELOW EXPECTED",
                 None => "",
             }
-        );
+        ));
     }
+    lines.join("\n")
+}
+
+/// Prints the table of a study ([`study_table`]) to stdout.
+pub fn print_study(study: &StudyResult) {
+    println!("\n{}", study_table(study));
 }
 
 /// Runs the command line; returns whether every verdict passed.

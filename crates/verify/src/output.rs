@@ -1,16 +1,59 @@
-//! Atomic writing of report files.
+//! Atomic writing of report files, and how a missing value is written in them.
 //!
 //! A report file is either absent, or complete with the old contents, or complete with the new
 //! contents — never truncated, even if the harness is killed mid-write: the bytes go to a
 //! temporary file in the same directory, which is flushed to disk (`fsync`) and then renamed
 //! over the target (an atomic replacement on POSIX file systems).
+//!
+//! A number without a value (e.g. the velocity error of a k-study, whose reference is discrete;
+//! a rate between two levels where one error is zero) is carried as a non-finite `f64` and never
+//! written as `NaN` or `inf`: it is `null` in JSON ([`finite_or_null`]) and [`MISSING`] (an em
+//! dash) in CSV cells ([`finite_or_dash`]) and in the terminal tables.
 
 use std::fs::{self, File, OpenOptions};
 use std::io::{self, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use serde::{Serialize, Serializer};
+
 use crate::error::VerifyError;
+
+/// How a missing value is written in CSV cells and terminal tables: an em dash.
+pub const MISSING: &str = "—";
+
+/// `Some(value)` if `value` is finite, `None` for NaN and ±∞ (a missing value).
+pub fn finite(value: f64) -> Option<f64> {
+    value.is_finite().then_some(value)
+}
+
+/// Serde `serialize_with` helper: a finite `f64` as a number, a non-finite one as `null` (in
+/// JSON) — deliberately, rather than relying on `serde_json` mapping NaN to `null`.
+pub fn finite_or_null<S: Serializer>(value: &f64, serializer: S) -> Result<S::Ok, S::Error> {
+    finite(*value).serialize(serializer)
+}
+
+/// Serde `serialize_with` helper for a sequence: every non-finite entry becomes `null`.
+pub fn finite_or_null_each<S: Serializer>(
+    values: &[f64],
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    serializer.collect_seq(values.iter().map(|&value| finite(value)))
+}
+
+/// Serde `serialize_with` helper for CSV cells: a finite `f64` as a number, a non-finite one as
+/// [`MISSING`].
+pub fn finite_or_dash<S: Serializer>(value: &f64, serializer: S) -> Result<S::Ok, S::Error> {
+    match finite(*value) {
+        Some(value) => serializer.serialize_f64(value),
+        None => serializer.serialize_str(MISSING),
+    }
+}
+
+/// `format(value)` if `value` is finite, else [`MISSING`] (for terminal tables).
+pub fn format_or_dash(value: f64, format: impl Fn(f64) -> String) -> String {
+    finite(value).map_or_else(|| MISSING.to_string(), format)
+}
 
 /// Distinguishes temporary files of concurrent writers within one process.
 static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
@@ -252,6 +295,64 @@ pub(crate) mod tests {
             "error does not name the path: {message}"
         );
         assert!(matches!(error, VerifyError::Io { .. }));
+    }
+
+    #[derive(serde::Serialize)]
+    struct CsvRow {
+        #[serde(serialize_with = "finite_or_dash")]
+        error: f64,
+        count: usize,
+    }
+
+    #[test]
+    fn a_missing_value_is_a_dash_in_csv() {
+        let scratch = ScratchDir::new("missing-csv");
+        let path = scratch.0.join("table.csv");
+        let rows = [0.5, f64::NAN, f64::INFINITY].map(|error| CsvRow { error, count: 1 });
+        write_csv_atomic(&path, &rows).unwrap();
+        let text = fs::read_to_string(&path).unwrap();
+        assert_eq!(text, "error,count\n0.5,1\n—,1\n—,1\n");
+    }
+
+    #[derive(serde::Serialize)]
+    struct JsonRecord {
+        #[serde(serialize_with = "finite_or_null")]
+        rate: f64,
+        #[serde(serialize_with = "finite_or_null_each")]
+        rates: Vec<f64>,
+    }
+
+    #[test]
+    fn a_missing_value_is_null_in_json() {
+        let scratch = ScratchDir::new("missing-json");
+        let path = scratch.0.join("record.json");
+        let records = [
+            JsonRecord {
+                rate: 0.25,
+                rates: vec![],
+            },
+            JsonRecord {
+                rate: f64::NAN,
+                rates: vec![1.5, f64::NAN, f64::NEG_INFINITY],
+            },
+        ];
+        write_json_atomic(&path, &records).unwrap();
+        let json: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(&path).unwrap()).unwrap();
+        assert_eq!(
+            json,
+            serde_json::json!([
+                { "rate": 0.25, "rates": [] },
+                { "rate": null, "rates": [1.5, null, null] }
+            ])
+        );
+    }
+
+    #[test]
+    fn a_missing_value_is_a_dash_in_a_table() {
+        assert_eq!(format_or_dash(f64::NAN, |v| format!("{v:.2}")), "—");
+        assert_eq!(format_or_dash(f64::INFINITY, |v| format!("{v:.2}")), "—");
+        assert_eq!(format_or_dash(1.0 / 3.0, |v| format!("{v:.2}")), "0.33");
     }
 
     #[test]

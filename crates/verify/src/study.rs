@@ -4,11 +4,13 @@
 
 use crate::case::{Case, LevelStudy, TimeStudy};
 use crate::errors::{ErrorComponents, ErrorTracker, Reference};
+use crate::output::{finite, finite_or_null, finite_or_null_each};
 use crate::VerifyError;
 use contact_damage::scheme::{RunSummary, Simulation, State};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::ser::SerializeMap;
+use serde::{Serialize, Serializer};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -58,8 +60,18 @@ pub struct RunStats {
     pub max_velocity_kkt: f64,
     /// Largest KKT residual of a damage step.
     pub max_damage_kkt: f64,
-    /// Outer Newton iterations (all steps).
+    /// Outer Newton iterations of the velocity steps (5.1), all steps together.
     pub newton_iterations: usize,
+    /// Newton iterations of one velocity step (5.1), mean over the steps
+    /// (`newton_iterations / steps`; 0 for a run without steps).
+    pub mean_newton_iterations: f64,
+    /// Newton iterations of one velocity step (5.1), the most over the steps.
+    pub max_newton_iterations: usize,
+    /// The relative KKT residual after each Newton iteration of the slowest velocity step (the
+    /// first step with `max_newton_iterations` iterations); its last entry is that step's final
+    /// residual, below the velocity tolerance. Empty for a run without steps.
+    #[serde(serialize_with = "finite_or_null_each")]
+    pub slowest_newton_history: Vec<f64>,
     /// Semismooth Newton iterations of the friction problems (all steps).
     pub friction_iterations: usize,
     /// Active-set iterations of the damage steps (all steps).
@@ -85,6 +97,13 @@ impl RunStats {
             max_velocity_kkt: summary.max_velocity_kkt,
             max_damage_kkt: summary.max_damage_kkt,
             newton_iterations: summary.velocity_newton_iterations,
+            mean_newton_iterations: if summary.steps == 0 {
+                0.0
+            } else {
+                summary.velocity_newton_iterations as f64 / summary.steps as f64
+            },
+            max_newton_iterations: summary.max_velocity_newton_iterations,
+            slowest_newton_history: summary.slowest_velocity_history.clone(),
             friction_iterations: summary.friction_iterations,
             damage_iterations: summary.damage_iterations,
             steps_with_separation: summary.steps_with_status[0],
@@ -108,25 +127,57 @@ pub struct RunResult {
     pub steps: usize,
     /// k = T/N.
     pub k: f64,
-    /// Error components.
+    /// Error components (in JSON, a component without a value, e.g. `velocity` against a
+    /// discrete reference, is `null`).
+    #[serde(serialize_with = "components_or_null")]
     pub errors: ErrorComponents,
     /// Solver statistics.
     pub stats: RunStats,
 }
 
+/// The error components as a JSON object with the keys of [`ErrorComponents::NAMES`], a
+/// component without a (finite) value written as `null`.
+fn components_or_null<S: Serializer>(
+    errors: &ErrorComponents,
+    serializer: S,
+) -> Result<S::Ok, S::Error> {
+    let mut map = serializer.serialize_map(Some(ErrorComponents::NAMES.len()))?;
+    for (name, value) in ErrorComponents::NAMES.iter().zip(errors.values()) {
+        map.serialize_entry(name, &finite(value))?;
+    }
+    map.end()
+}
+
 /// Rates of one error component.
+///
+/// A rate that cannot be measured (an error missing or zero at a level, e.g. the velocity error
+/// of a k-study, which has no value) is not finite here, `null` in `summary.json`, and left out
+/// or shown as `—` in the terminal.
 #[derive(Debug, Clone, Serialize)]
 pub struct ComponentRates {
     /// Component name.
     pub component: String,
-    /// Rates between consecutive levels.
+    /// Rates between consecutive levels (not finite where there is none).
+    #[serde(serialize_with = "finite_or_null_each")]
     pub pairwise: Vec<f64>,
-    /// Least-squares slope over the finest [`FIT_LEVELS`] levels.
+    /// Least-squares slope over the finest [`FIT_LEVELS`] levels (not finite when fewer than two
+    /// of them have a positive finite error).
+    #[serde(serialize_with = "finite_or_null")]
     pub least_squares: f64,
     /// Expected rate (None for quantities the theorem does not bound).
     pub expected: Option<f64>,
-    /// observed ≥ expected − tolerance (None when not bounded).
+    /// The verdict: None for a quantity the theorem does not bound (it is not judged, whether it
+    /// has values or not); for a bounded one, `least_squares` ≥ expected − tolerance, which
+    /// fails when `least_squares` is missing (the study then shows nothing about it).
     pub pass: Option<bool>,
+}
+
+impl ComponentRates {
+    /// True when the component has no rate at all (no pairwise rate and no least-squares
+    /// slope), e.g. the velocity error of a k-study.
+    pub fn is_missing(&self) -> bool {
+        !self.least_squares.is_finite() && self.pairwise.iter().all(|r| !r.is_finite())
+    }
 }
 
 /// Result of a study.
@@ -139,6 +190,7 @@ pub struct StudyResult {
     /// "h" or "k": the variable the rates are measured in.
     pub variable: &'static str,
     /// Expected rate of E(h, k) in that variable.
+    #[serde(serialize_with = "finite_or_null")]
     pub expected_rate: f64,
     /// The runs, coarsest first.
     pub runs: Vec<RunResult>,
@@ -191,13 +243,17 @@ pub fn rates(
                 .collect();
             let fit = &points[points.len().saturating_sub(FIT_LEVELS)..];
             let least_squares = least_squares_slope(fit);
+            // Theorem 5.2 bounds the four terms of E(h, k) and their sum, not the velocity error
             let bounded = *name != "velocity";
+            let pass = bounded.then(|| {
+                finite(least_squares).is_some_and(|rate| rate >= expected - RATE_TOLERANCE)
+            });
             ComponentRates {
                 component: name.to_string(),
                 pairwise,
                 least_squares,
                 expected: bounded.then_some(expected),
-                pass: bounded.then_some(least_squares >= expected - RATE_TOLERANCE),
+                pass,
             }
         })
         .collect()
@@ -380,4 +436,112 @@ pub fn time_study<const D: usize>(
         rates,
         pass,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A run at size `h` whose components are `errors` (in the order of `ErrorComponents::NAMES`).
+    fn run(h: f64, errors: [f64; 6]) -> RunResult {
+        let [displacement, difference_quotient, damage, damage_gradient, total, velocity] = errors;
+        RunResult {
+            cells: 1,
+            h,
+            steps: 1,
+            k: h,
+            errors: ErrorComponents {
+                displacement,
+                difference_quotient,
+                damage,
+                damage_gradient,
+                total,
+                velocity,
+            },
+            stats: RunStats::default(),
+        }
+    }
+
+    /// Three levels: every bounded component first order, the velocity error missing (as in a
+    /// k-study), except `damage`, which is missing at the finest level.
+    fn runs() -> Vec<RunResult> {
+        [0.4, 0.2, 0.1]
+            .iter()
+            .map(|&h| {
+                let damage = if h < 0.15 { f64::NAN } else { h };
+                run(h, [h, h, damage, h, 4.0 * h, f64::NAN])
+            })
+            .collect()
+    }
+
+    #[test]
+    fn a_component_without_values_has_no_rates_and_no_verdict() {
+        let rates = rates(&runs(), |r| r.h, 1.0);
+        let velocity = rates.iter().find(|r| r.component == "velocity").unwrap();
+        assert!(velocity.is_missing());
+        assert_eq!((velocity.expected, velocity.pass), (None, None));
+        let total = rates.iter().find(|r| r.component == "total").unwrap();
+        assert!(!total.is_missing());
+        assert!((total.least_squares - 1.0).abs() < 1e-12);
+        assert_eq!(total.pass, Some(true));
+    }
+
+    #[test]
+    fn a_bounded_component_missing_at_a_level_is_judged_on_the_others() {
+        let rates = rates(&runs(), |r| r.h, 1.0);
+        let damage = rates.iter().find(|r| r.component == "damage").unwrap();
+        assert!(!damage.is_missing());
+        assert!(damage.pairwise[0].is_finite() && !damage.pairwise[1].is_finite());
+        assert!((damage.least_squares - 1.0).abs() < 1e-12);
+        assert_eq!(damage.pass, Some(true));
+    }
+
+    #[test]
+    fn a_bounded_component_without_a_rate_fails() {
+        let runs: Vec<RunResult> = [0.2, 0.1]
+            .iter()
+            .map(|&h| run(h, [f64::NAN, h, h, h, f64::NAN, h]))
+            .collect();
+        let rates = rates(&runs, |r| r.h, 1.0);
+        let displacement = &rates[0];
+        assert!(displacement.is_missing());
+        assert_eq!(displacement.pass, Some(false));
+        let velocity = rates.iter().find(|r| r.component == "velocity").unwrap();
+        assert_eq!(velocity.pass, None);
+    }
+
+    #[test]
+    fn summary_json_has_null_for_missing_values_and_newton_statistics() {
+        let mut runs = runs();
+        runs[0].stats = RunStats::from_summary(
+            &RunSummary {
+                steps: 4,
+                velocity_newton_iterations: 6,
+                max_velocity_newton_iterations: 3,
+                slowest_velocity_history: vec![1e-3, 1e-8, 1e-13],
+                ..RunSummary::default()
+            },
+            10,
+            0.5,
+        );
+        let rates = rates(&runs, |r| r.h, 1.0);
+        let text = serde_json::to_string(&(&runs, &rates)).unwrap();
+        assert!(!text.contains("NaN") && !text.contains("inf"), "{text}");
+        let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+        let stats = &json[0][0]["stats"];
+        assert_eq!(stats["newton_iterations"], 6);
+        assert_eq!(stats["mean_newton_iterations"], 1.5);
+        assert_eq!(stats["max_newton_iterations"], 3);
+        assert_eq!(
+            stats["slowest_newton_history"],
+            serde_json::json!([1e-3, 1e-8, 1e-13])
+        );
+        assert!(json[0][0]["errors"]["velocity"].is_null());
+        assert_eq!(json[0][0]["errors"]["total"], 1.6);
+        assert!(json[0][2]["errors"]["damage"].is_null());
+        let velocity = &json[1][5];
+        assert_eq!(velocity["component"], "velocity");
+        assert_eq!(velocity["pairwise"], serde_json::json!([null, null]));
+        assert!(velocity["least_squares"].is_null() && velocity["pass"].is_null());
+    }
 }
