@@ -3,9 +3,16 @@
 //!
 //! Every law validates its parameters against the assumptions (3.4)–(3.7) of the theory, and an
 //! error names the offending parameter.
+//!
+//! Besides the closed-form laws, two laws take user-written functions through small traits (the
+//! verification harness implements them for expressions with automatic differentiation):
+//! [`PotentialViscosity`], 𝒜 = ∂Φ/∂ε for a potential Φ(tr ε, |ε_D|) ([`InvariantPotential`]),
+//! and [`ModuliElasticity`], G with moduli μ(β), λ(β) ([`DamageModuli`]). Their `validate` checks
+//! (3.4), resp. the sign conditions of the moduli, at fixed samples.
 
 use crate::{Error, Result};
-use nalgebra::SMatrix;
+use nalgebra::{DMatrix, SMatrix};
+use std::sync::Arc;
 
 /// A symmetric second-order tensor in R^D (strain, strain rate, stress).
 pub type Tensor<const D: usize> = SMatrix<f64, D, D>;
@@ -155,6 +162,381 @@ impl<const D: usize> Viscosity<D> for SaturatingViscosity {
     }
 }
 
+/// First and second partial derivatives of an isotropic potential Φ(t, n) in the invariants
+/// t = tr ε and n = |ε_D| of the strain rate (ε_D = ε − tr(ε)/d I, |·| the Frobenius norm).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InvariantJet {
+    /// Φ(t, n).
+    pub value: f64,
+    /// (Φ_t, Φ_n).
+    pub gradient: [f64; 2],
+    /// ((Φ_tt, Φ_tn), (Φ_nt, Φ_nn)).
+    pub hessian: [[f64; 2]; 2],
+}
+
+/// A viscosity potential written in the invariants (t, n) = (tr ε, |ε_D|), n ≥ 0, of the strain
+/// rate: the user-written part of [`PotentialViscosity`]. Derivatives in n at n = 0 are one-sided
+/// (from n > 0); for Φ(ε) = Φ(tr ε, |ε_D|) to be differentiable at ε_D = 0, Φ_n(t, 0) = 0 is
+/// needed (checked by [`PotentialViscosity`]'s `validate`).
+pub trait InvariantPotential: Send + Sync {
+    /// Φ(t, n).
+    fn value(&self, trace: f64, dev_norm: f64) -> f64;
+    /// Φ and its first and second partial derivatives at (t, n).
+    fn jet(&self, trace: f64, dev_norm: f64) -> InvariantJet;
+}
+
+/// Below this ratio |ε_D| / |ε| the tangent and stress of [`PotentialViscosity`] use the limit form
+/// at ε_D → 0 (Φ_n/n → Φ_nn, Φ_nn − Φ_n/n → 0).
+///
+/// The chain-rule form has bounded factors for any n > 0, but Φ_n/n amplifies the absolute
+/// round-off of Φ_n by 1/n. The limit form is exact at n = 0 and, for Φ_n = a n + b n³ + … (Φ
+/// smooth in ε), replaces Φ_n/n = a + b n² by Φ_nn = a + 3b n²: a relative change O((n/L)²) for a Φ
+/// varying on a rate scale L (e.g. ε₀ of [`SaturatingViscosity`]), below 1e-12 at n ≤ 1e-10 |ε|
+/// whenever L ≥ 1e-4 |ε|.
+const SMALL_DEVIATOR: f64 = 1e-10;
+
+/// Sampled magnitudes |ε| of the check of [`PotentialViscosity`]: 10^(k/2), k = −8, …, 6
+/// (1e-4 to 1e3 on a log grid, 15 values).
+fn sampled_rate_magnitudes() -> impl Iterator<Item = f64> {
+    (-8..=6).map(|k| 10f64.powf(f64::from(k) / 2.0))
+}
+
+/// Sampled directions of the check of [`PotentialViscosity`]: unit strain rates cos θ I/√d +
+/// sin θ E_D at 13 angles θ ∈ [0°, 180°] (pure volumetric at 0° and 180°, pure deviatoric at 90°,
+/// mixed otherwise), E_D cycling through unit deviators (normal, shear and a generic one).
+fn sampled_rate_directions<const D: usize>() -> Vec<Tensor<D>> {
+    let volumetric = Tensor::<D>::identity() / (D as f64).sqrt();
+    let mut deviators = Vec::new();
+    let mut normal = Tensor::<D>::zeros();
+    normal[(0, 0)] = 1.0;
+    normal[(1, 1)] = -1.0;
+    deviators.push(normal);
+    let mut shear = Tensor::<D>::zeros();
+    shear[(0, 1)] = 1.0;
+    shear[(1, 0)] = 1.0;
+    deviators.push(shear);
+    let generic = Tensor::<D>::from_fn(|i, j| {
+        let (a, b) = (i.min(j) as f64, i.max(j) as f64);
+        0.3 + 0.7 * a - 0.45 * b + 0.2 * a * b
+    });
+    deviators.push(deviator(&generic));
+    let deviators: Vec<Tensor<D>> = deviators.iter().map(|e| e / e.norm()).collect();
+    [
+        0.0, 10.0, 30.0, 45.0, 60.0, 80.0, 90.0, 100.0, 120.0, 135.0, 150.0, 170.0, 180.0,
+    ]
+    .iter()
+    .enumerate()
+    .map(|(i, degrees): (usize, &f64)| {
+        let theta = degrees.to_radians();
+        let (sin, cos) = if *degrees == 90.0 {
+            (1.0, 0.0)
+        } else if *degrees == 180.0 {
+            (0.0, -1.0)
+        } else {
+            theta.sin_cos()
+        };
+        volumetric * cos + deviators[i % deviators.len()] * sin
+    })
+    .collect()
+}
+
+/// An orthonormal basis (Frobenius product) of the symmetric tensors of R^D: the D diagonal unit
+/// tensors and (e_i ⊗ e_j + e_j ⊗ e_i)/√2 for i < j.
+fn symmetric_basis<const D: usize>() -> Vec<Tensor<D>> {
+    let mut basis = Vec::with_capacity(D * (D + 1) / 2);
+    for i in 0..D {
+        let mut e = Tensor::<D>::zeros();
+        e[(i, i)] = 1.0;
+        basis.push(e);
+    }
+    for i in 0..D {
+        for j in i + 1..D {
+            let mut e = Tensor::<D>::zeros();
+            e[(i, j)] = std::f64::consts::FRAC_1_SQRT_2;
+            e[(j, i)] = std::f64::consts::FRAC_1_SQRT_2;
+            basis.push(e);
+        }
+    }
+    basis
+}
+
+/// The invariants of a strain rate as [`PotentialViscosity`] uses them.
+struct Invariants<const D: usize> {
+    trace: f64,
+    deviator: Tensor<D>,
+    /// ε_D/|ε_D|, or 0 where ε_D = 0.
+    unit_deviator: Tensor<D>,
+    dev_norm: f64,
+    /// |ε_D| ≤ SMALL_DEVIATOR |ε|: use the limit form.
+    near_axis: bool,
+}
+
+impl<const D: usize> Invariants<D> {
+    fn of(strain_rate: &Tensor<D>) -> Self {
+        let trace = trace(strain_rate);
+        let deviator = deviator(strain_rate);
+        let dev_norm = deviator.norm();
+        let unit_deviator = if dev_norm > 0.0 {
+            deviator / dev_norm
+        } else {
+            Tensor::<D>::zeros()
+        };
+        Self {
+            trace,
+            deviator,
+            unit_deviator,
+            dev_norm,
+            near_axis: dev_norm <= SMALL_DEVIATOR * strain_rate.norm(),
+        }
+    }
+
+    /// (Φ_n/n, Φ_nn − Φ_n/n), by their limits (Φ_nn, 0) as n → 0 near the volumetric axis.
+    fn deviatoric_slopes(&self, jet: &InvariantJet) -> (f64, f64) {
+        if self.near_axis {
+            (jet.hessian[1][1], 0.0)
+        } else {
+            let secant = jet.gradient[1] / self.dev_norm;
+            (secant, jet.hessian[1][1] - secant)
+        }
+    }
+}
+
+/// Viscosity 𝒜 = ∂Φ/∂ε of a user potential Φ(ε) = Φ(tr ε, |ε_D|) of the strain rate, written in
+/// its invariants t = tr ε and n = |ε_D| (an [`InvariantPotential`]); the Kelvin–Voigt law (2.1)
+/// with 𝒜 the gradient of a convex potential, as the velocity step (5.1) needs.
+///
+/// By the chain rule (∂t/∂ε = I, ∂n/∂ε = ε_D/n):
+///
+/// σ = Φ_t I + Φ_n ε_D/n,
+///
+/// dσ\[δ\] = (Φ_tt tr δ + Φ_tn (ε_D:δ)/n) I + (Φ_n/n) δ_D
+///          + ε_D \[Φ_nt tr δ/n + (Φ_nn/n² − Φ_n/n³)(ε_D:δ)\],
+///
+/// evaluated as (Φ_n/n) δ_D + e \[Φ_nt tr δ + (Φ_nn − Φ_n/n)(e:δ)\] with e = ε_D/n (bounded
+/// factors, no 1/n²). Near the volumetric axis, n ≤ 10⁻¹⁰ |ε| (and at ε_D = 0 exactly), the
+/// limits Φ_n/n → Φ_nn and Φ_nn − Φ_n/n → 0 (valid when Φ_n(t, 0) = 0) are used instead; their
+/// error is O(n²) relative.
+///
+/// The potential is shifted so that Φ(0) = 0. The law is always treated as nonlinear
+/// (`is_linear` is false, even for a quadratic Φ).
+///
+/// # Check (`validate`)
+/// Assumption (3.4) (𝒜 Lipschitz and strongly monotone) means Φ strongly convex with a Lipschitz
+/// gradient. It cannot be proved for an arbitrary Φ; `validate` rejects a Φ that *visibly*
+/// violates it, at a fixed deterministic sample of 196 strain rates: ε = 0 and r (cos θ I/√d +
+/// sin θ E_D) for 13 angles θ ∈ [0°, 180°] (pure volumetric, pure deviatoric and mixed; E_D cycling
+/// through three unit deviators) and 15 magnitudes r = 10^(k/2), k = −8, …, 6 (1e-4 to 1e3).
+/// At every sample:
+/// - Φ(ε), σ(ε) and the tangent are finite;
+/// - the tangent, as a matrix K on the symmetric tensors (an orthonormal basis: dimension 3 in
+///   2D, 6 in 3D), is symmetric: max|K − Kᵀ| ≤ 10⁻⁸ max|K|;
+/// - its smallest eigenvalue is ≥ m = 10⁻⁸ λ_max > 0, λ_max the largest eigenvalue over all
+///   samples (strongly monotone, and a tangent whose spread over the samples exceeds 10⁸ is taken as
+///   not Lipschitz);
+///
+/// and Φ_n(t, 0) = 0 (Φ differentiable at ε_D = 0): |Φ_n(t, 0)| ≤ 10⁻¹⁰ λ_max · 10⁻⁴ at t = 0 and
+/// the traces of the pure volumetric samples (the jump of the stress across ε_D = 0 is below 10⁻¹⁰
+/// of the stress at the smallest sampled rate). Errors name `viscosity.potential`.
+#[derive(Clone)]
+pub struct PotentialViscosity {
+    potential: Arc<dyn InvariantPotential>,
+    /// Φ(0, 0), subtracted so that the law's potential vanishes at ε = 0.
+    offset: f64,
+}
+
+impl std::fmt::Debug for PotentialViscosity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("PotentialViscosity")
+            .field("offset", &self.offset)
+            .finish_non_exhaustive()
+    }
+}
+
+impl PotentialViscosity {
+    /// The law of the potential Φ(t, n) (not validated: call `validate`).
+    pub fn new(potential: Arc<dyn InvariantPotential>) -> Self {
+        let offset = potential.value(0.0, 0.0);
+        Self { potential, offset }
+    }
+
+    /// The potential in the invariants.
+    pub fn invariant_potential(&self) -> &Arc<dyn InvariantPotential> {
+        &self.potential
+    }
+
+    /// The tangent dσ(ε) as a symmetric-tensor matrix in the basis of [`symmetric_basis`].
+    fn tangent_matrix<const D: usize>(&self, strain_rate: &Tensor<D>) -> DMatrix<f64> {
+        let basis = symmetric_basis::<D>();
+        let columns: Vec<Tensor<D>> = basis
+            .iter()
+            .map(|e| <Self as Viscosity<D>>::tangent(self, strain_rate, e))
+            .collect();
+        DMatrix::from_fn(basis.len(), basis.len(), |a, b| basis[a].dot(&columns[b]))
+    }
+
+    fn invalid(value: f64, reason: String) -> Error {
+        Error::parameter("viscosity.potential", value, reason)
+    }
+
+    fn stress_at<const D: usize>(&self, invariants: &Invariants<D>) -> Tensor<D> {
+        let jet = self.potential.jet(invariants.trace, invariants.dev_norm);
+        let (secant, _) = invariants.deviatoric_slopes(&jet);
+        Tensor::<D>::identity() * jet.gradient[0] + invariants.deviator * secant
+    }
+
+    fn tangent_at<const D: usize>(
+        &self,
+        invariants: &Invariants<D>,
+        direction: &Tensor<D>,
+    ) -> Tensor<D> {
+        let jet = self.potential.jet(invariants.trace, invariants.dev_norm);
+        let (secant, curvature_gap) = invariants.deviatoric_slopes(&jet);
+        let direction_trace = trace(direction);
+        let direction_deviator = deviator(direction);
+        let e = &invariants.unit_deviator;
+        let along = e.dot(&direction_deviator);
+        let [[phi_tt, phi_tn], [phi_nt, _]] = jet.hessian;
+        Tensor::<D>::identity() * (phi_tt * direction_trace + phi_tn * along)
+            + direction_deviator * secant
+            + e * (phi_nt * direction_trace + curvature_gap * along)
+    }
+}
+
+impl<const D: usize> Viscosity<D> for PotentialViscosity {
+    fn stress(&self, strain_rate: &Tensor<D>) -> Tensor<D> {
+        self.stress_at(&Invariants::of(strain_rate))
+    }
+
+    fn tangent(&self, strain_rate: &Tensor<D>, direction: &Tensor<D>) -> Tensor<D> {
+        self.tangent_at(&Invariants::of(strain_rate), direction)
+    }
+
+    fn potential(&self, strain_rate: &Tensor<D>) -> f64 {
+        let invariants = Invariants::of(strain_rate);
+        self.potential.value(invariants.trace, invariants.dev_norm) - self.offset
+    }
+
+    fn is_linear(&self) -> bool {
+        false
+    }
+
+    fn validate(&self) -> Result<()> {
+        let describe = |rate: &Tensor<D>| {
+            let invariants = Invariants::of(rate);
+            if rate.norm() == 0.0 {
+                return "ε = 0".to_string();
+            }
+            format!(
+                "tr ε = {:.3e}, |ε_D| = {:.3e} (|ε| = {:.3e})",
+                invariants.trace,
+                invariants.dev_norm,
+                rate.norm()
+            )
+        };
+        let mut samples = vec![Tensor::<D>::zeros()];
+        for direction in sampled_rate_directions::<D>() {
+            samples.extend(sampled_rate_magnitudes().map(|r| direction * r));
+        }
+        // (λ_min, λ_max, sample) per sample, and the largest eigenvalue overall
+        let mut smallest = Vec::with_capacity(samples.len());
+        let mut largest = (f64::NEG_INFINITY, 0);
+        for (index, rate) in samples.iter().enumerate() {
+            let value = <Self as Viscosity<D>>::potential(self, rate);
+            if !value.is_finite() {
+                return Err(Self::invalid(
+                    value,
+                    format!("Φ is not finite at the strain rate with {}", describe(rate)),
+                ));
+            }
+            let stress = <Self as Viscosity<D>>::stress(self, rate);
+            if !stress.iter().all(|s| s.is_finite()) {
+                return Err(Self::invalid(
+                    stress.norm(),
+                    format!(
+                        "the stress ∂Φ/∂ε is not finite at the strain rate with {}",
+                        describe(rate)
+                    ),
+                ));
+            }
+            let matrix = self.tangent_matrix::<D>(rate);
+            if !matrix.iter().all(|k| k.is_finite()) {
+                return Err(Self::invalid(
+                    matrix.norm(),
+                    format!(
+                        "the tangent ∂²Φ/∂ε² is not finite at the strain rate with {}",
+                        describe(rate)
+                    ),
+                ));
+            }
+            let asymmetry = (&matrix - matrix.transpose()).amax();
+            if asymmetry > 1e-8 * matrix.amax() {
+                return Err(Self::invalid(
+                    asymmetry,
+                    format!(
+                        "the tangent ∂²Φ/∂ε² is not symmetric (max |K − Kᵀ| = {asymmetry:.3e}, \
+                         max |K| = {:.3e}) at the strain rate with {}",
+                        matrix.amax(),
+                        describe(rate)
+                    ),
+                ));
+            }
+            let eigenvalues = ((&matrix + matrix.transpose()) * 0.5).symmetric_eigenvalues();
+            smallest.push((eigenvalues.min(), eigenvalues.max(), index));
+            if eigenvalues.max() > largest.0 {
+                largest = (eigenvalues.max(), index);
+            }
+        }
+        let (lambda_max, at_max) = largest;
+        let smallest_rate = 1e-4;
+        for t in std::iter::once(0.0).chain(sampled_rate_magnitudes().flat_map(|r| {
+            let t = r * (D as f64).sqrt();
+            [t, -t]
+        })) {
+            let slope = self.potential.jet(t, 0.0).gradient[1];
+            if slope.is_nan() || slope.abs() > 1e-10 * lambda_max.max(0.0) * smallest_rate {
+                return Err(Self::invalid(
+                    slope,
+                    format!(
+                        "Φ_n(t, 0) = ∂Φ/∂|ε_D| at ε_D = 0 must be 0 for Φ to be differentiable \
+                         (here {slope:.3e} at tr ε = {t:.3e}): the stress would jump across \
+                         ε_D = 0 (e.g. a term in |ε_D| rather than |ε_D|²)"
+                    ),
+                ));
+            }
+        }
+        let bound = 1e-8 * lambda_max;
+        let (lambda_min, local_max, at_min) = smallest
+            .iter()
+            .copied()
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .unwrap_or((f64::NAN, f64::NAN, 0));
+        if !(lambda_max > 0.0 && lambda_min >= bound) {
+            // round-off relative to the tangent at that sample
+            let round_off = 1e-12 * local_max.abs();
+            let verdict = if lambda_min < -round_off {
+                "Φ is not convex there (negative curvature)"
+            } else if lambda_min <= round_off {
+                "Φ is not strongly convex there (no curvature in some direction, up to round-off)"
+            } else {
+                "the eigenvalues of the tangent spread over more than 10⁸ across the samples: \
+                 Φ is not visibly strongly convex with a Lipschitz gradient"
+            };
+            return Err(Self::invalid(
+                lambda_min,
+                format!(
+                    "the tangent ∂²Φ/∂ε² at {} has smallest eigenvalue \
+                     {lambda_min:.3e} < 10⁻⁸ × the largest eigenvalue {lambda_max:.3e} \
+                     (at {}) over the sampled strain rates (|ε| from 1e-4 to 1e3): {verdict}, \
+                     so 𝒜 = ∂Φ/∂ε would not be strongly monotone and Lipschitz (3.4)",
+                    describe(&samples[at_min]),
+                    describe(&samples[at_max])
+                ),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// Damage-dependent elasticity G(ε, β) of (2.1). Assumption (3.5): Lipschitz in (ε, β).
 ///
 /// The derivatives are not used by the scheme (G is explicit in (5.1)); they make the law usable for
@@ -228,6 +610,132 @@ impl<const D: usize> Elasticity<D> for DamagedHooke {
                 self.lame_lambda,
                 "2μ + dλ must be > 0 (positive bulk modulus)",
             ));
+        }
+        Ok(())
+    }
+}
+
+/// Damage-dependent Lamé moduli μ(β), λ(β) with their derivatives: the user-written part of
+/// [`ModuliElasticity`]. Called with β ∈ [0, 1] only.
+pub trait DamageModuli: Send + Sync {
+    /// (μ(β), μ'(β)).
+    fn shear_modulus(&self, damage: f64) -> (f64, f64);
+    /// (λ(β), λ'(β)).
+    fn lame_lambda(&self, damage: f64) -> (f64, f64);
+}
+
+/// G(ε, β) = 2μ(β̄) ε + λ(β̄) tr(ε) I with β̄ = min(max(β, 0), 1) and user moduli μ(β), λ(β)
+/// ([`DamageModuli`]); [`DamagedHooke`] is the case μ(β) = μβ, λ(β) = λβ. With the clamp and
+/// moduli that are C¹ on [0, 1], G is Lipschitz in ε and, for bounded ε, in β, as (3.5) asks.
+///
+/// `damage_derivative` is the one-sided derivative from inside [0, 1] (μ'(β), λ'(β) at the ends),
+/// zero outside [0, 1] where the clamp is active, as for [`DamagedHooke`].
+///
+/// # Check (`validate`)
+/// At the 101 damages β = k/100, k = 0, …, 100: μ, μ', λ, λ' are finite, μ(β) ≥ 0 and
+/// 2μ(β) + dλ(β) ≥ 0 (G(·, β) positive semidefinite), and at β = 1 (undamaged) μ(1) > 0 and
+/// 2μ(1) + dλ(1) > 0 (positive definite). Errors name `elasticity.shear_modulus` or
+/// `elasticity.lame_lambda`.
+#[derive(Clone)]
+pub struct ModuliElasticity {
+    /// μ(β), λ(β).
+    pub moduli: Arc<dyn DamageModuli>,
+}
+
+impl std::fmt::Debug for ModuliElasticity {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("ModuliElasticity").finish_non_exhaustive()
+    }
+}
+
+impl ModuliElasticity {
+    fn hooke<const D: usize>(shear: f64, lambda: f64, strain: &Tensor<D>) -> Tensor<D> {
+        strain * (2.0 * shear) + Tensor::<D>::identity() * (lambda * trace(strain))
+    }
+}
+
+impl<const D: usize> Elasticity<D> for ModuliElasticity {
+    fn stress(&self, strain: &Tensor<D>, damage: f64) -> Tensor<D> {
+        let beta = damage.clamp(0.0, 1.0);
+        let (shear, _) = self.moduli.shear_modulus(beta);
+        let (lambda, _) = self.moduli.lame_lambda(beta);
+        Self::hooke(shear, lambda, strain)
+    }
+    fn strain_derivative(
+        &self,
+        _strain: &Tensor<D>,
+        damage: f64,
+        direction: &Tensor<D>,
+    ) -> Tensor<D> {
+        <Self as Elasticity<D>>::stress(self, direction, damage)
+    }
+    /// One-sided derivative from inside [0, 1] (the clamp is inactive on the closed interval).
+    fn damage_derivative(&self, strain: &Tensor<D>, damage: f64) -> Tensor<D> {
+        if (0.0..=1.0).contains(&damage) {
+            let (_, shear_slope) = self.moduli.shear_modulus(damage);
+            let (_, lambda_slope) = self.moduli.lame_lambda(damage);
+            Self::hooke(shear_slope, lambda_slope, strain)
+        } else {
+            Tensor::<D>::zeros()
+        }
+    }
+    fn validate(&self) -> Result<()> {
+        const SHEAR: &str = "elasticity.shear_modulus";
+        const LAMBDA: &str = "elasticity.lame_lambda";
+        let d = D as f64;
+        for k in 0..=100 {
+            let beta = f64::from(k) / 100.0;
+            let (shear, shear_slope) = self.moduli.shear_modulus(beta);
+            let (lambda, lambda_slope) = self.moduli.lame_lambda(beta);
+            for (name, what, value) in [
+                (SHEAR, "μ", shear),
+                (SHEAR, "μ'", shear_slope),
+                (LAMBDA, "λ", lambda),
+                (LAMBDA, "λ'", lambda_slope),
+            ] {
+                if !value.is_finite() {
+                    return Err(Error::parameter(
+                        name,
+                        value,
+                        format!("{what}(β) is not finite at β = {beta}"),
+                    ));
+                }
+            }
+            if shear < 0.0 {
+                return Err(Error::parameter(
+                    SHEAR,
+                    shear,
+                    format!("μ(β) must be ≥ 0 on [0, 1] (G positive semidefinite); μ({beta}) < 0"),
+                ));
+            }
+            let bulk = 2.0 * shear + d * lambda;
+            if bulk < 0.0 {
+                return Err(Error::parameter(
+                    LAMBDA,
+                    lambda,
+                    format!(
+                        "2μ(β) + dλ(β) must be ≥ 0 on [0, 1] (G positive semidefinite); at \
+                         β = {beta}: 2μ + dλ = {bulk:.3e} with μ = {shear}"
+                    ),
+                ));
+            }
+            if beta == 1.0 && shear <= 0.0 {
+                return Err(Error::parameter(
+                    SHEAR,
+                    shear,
+                    "μ(1) must be > 0 (the undamaged material is elastic)",
+                ));
+            }
+            if beta == 1.0 && bulk <= 0.0 {
+                return Err(Error::parameter(
+                    LAMBDA,
+                    lambda,
+                    format!(
+                        "2μ(1) + dλ(1) must be > 0 (positive bulk modulus of the undamaged \
+                         material); here μ(1) = {shear}"
+                    ),
+                ));
+            }
         }
         Ok(())
     }
@@ -391,6 +899,547 @@ mod tests {
     fn sample_tensor() -> Tensor<3> {
         let a = Tensor::<3>::new(0.3, -0.2, 0.5, 0.1, 0.7, -0.4, 0.2, 0.6, -0.1);
         (a + a.transpose()) * 0.5
+    }
+
+    /// Φ = η n² + (η/d + ζ/2) t² + η₁ ε₀² (√(1 + n²/ε₀²) − 1): the potential of
+    /// [`SaturatingViscosity`] in the invariants (|ε|² = n² + t²/d), derivatives by hand.
+    struct SaturatingInvariants {
+        law: SaturatingViscosity,
+        dim: f64,
+    }
+
+    impl InvariantPotential for SaturatingInvariants {
+        fn value(&self, t: f64, n: f64) -> f64 {
+            self.jet(t, n).value
+        }
+        fn jet(&self, t: f64, n: f64) -> InvariantJet {
+            let (eta, zeta) = (self.law.linear.shear, self.law.linear.bulk);
+            let (extra, s2) = (self.law.extra_shear, self.law.rate_scale.powi(2));
+            let volumetric = eta / self.dim + zeta / 2.0;
+            let w = (1.0 + n * n / s2).sqrt();
+            InvariantJet {
+                value: eta * n * n + volumetric * t * t + extra * s2 * (w - 1.0),
+                gradient: [2.0 * volumetric * t, 2.0 * eta * n + extra * n / w],
+                hessian: [
+                    [2.0 * volumetric, 0.0],
+                    [0.0, 2.0 * eta + extra / (w * w * w)],
+                ],
+            }
+        }
+    }
+
+    /// Φ = a n² + b t² + c s² (√(1 + (n² + t²)/s²) − 1): convex, couples t and n; tangent ≥
+    /// min(2a, 2bd).
+    struct Coupled {
+        a: f64,
+        b: f64,
+        c: f64,
+        s: f64,
+    }
+
+    impl InvariantPotential for Coupled {
+        fn value(&self, t: f64, n: f64) -> f64 {
+            self.jet(t, n).value
+        }
+        fn jet(&self, t: f64, n: f64) -> InvariantJet {
+            let (a, b, c, s2) = (self.a, self.b, self.c, self.s * self.s);
+            let w = (1.0 + (n * n + t * t) / s2).sqrt();
+            let w3 = w * w * w;
+            let cross = -c * t * n / (s2 * w3);
+            InvariantJet {
+                value: a * n * n + b * t * t + c * s2 * (w - 1.0),
+                gradient: [2.0 * b * t + c * t / w, 2.0 * a * n + c * n / w],
+                hessian: [
+                    [2.0 * b + c / w - c * t * t / (s2 * w3), cross],
+                    [cross, 2.0 * a + c / w - c * n * n / (s2 * w3)],
+                ],
+            }
+        }
+    }
+
+    fn coupled() -> PotentialViscosity {
+        PotentialViscosity::new(Arc::new(Coupled {
+            a: 0.8,
+            b: 0.3,
+            c: 1.5,
+            s: 0.2,
+        }))
+    }
+
+    /// Φ = a n² + b t² + c n + e n⁴ + f exp(t) (with the derivatives of each term).
+    #[derive(Clone, Copy, Default)]
+    struct Polynomial {
+        a: f64,
+        b: f64,
+        c: f64,
+        e: f64,
+        f: f64,
+    }
+
+    impl InvariantPotential for Polynomial {
+        fn value(&self, t: f64, n: f64) -> f64 {
+            self.jet(t, n).value
+        }
+        fn jet(&self, t: f64, n: f64) -> InvariantJet {
+            let Polynomial { a, b, c, e, f } = *self;
+            let exp = if f == 0.0 { 0.0 } else { f * t.exp() };
+            InvariantJet {
+                value: a * n * n + b * t * t + c * n + e * n.powi(4) + exp,
+                gradient: [2.0 * b * t + exp, 2.0 * a * n + c + 4.0 * e * n.powi(3)],
+                hessian: [[2.0 * b + exp, 0.0], [0.0, 2.0 * a + 12.0 * e * n * n]],
+            }
+        }
+    }
+
+    fn saturating_pair<const D: usize>() -> (SaturatingViscosity, PotentialViscosity) {
+        let law = SaturatingViscosity {
+            linear: LinearViscosity {
+                shear: 1.0,
+                bulk: 0.5,
+            },
+            extra_shear: 0.5,
+            rate_scale: 0.2,
+        };
+        let potential =
+            PotentialViscosity::new(Arc::new(SaturatingInvariants { law, dim: D as f64 }));
+        (law, potential)
+    }
+
+    /// Strain rates with ε_D = 0, tiny and exactly zero |ε_D| (with and without a trace), and
+    /// generic ones.
+    fn strain_rates<const D: usize>() -> Vec<Tensor<D>> {
+        let generic = Tensor::<D>::from_fn(|i, j| {
+            let (a, b) = (i.min(j) as f64, i.max(j) as f64);
+            0.4 - 0.3 * a + 0.25 * b + 0.1 * a * b
+        });
+        let unit_deviator = deviator(&generic) / deviator(&generic).norm();
+        let identity = Tensor::<D>::identity();
+        let mut rates = vec![
+            Tensor::<D>::zeros(),
+            identity * 0.7,
+            identity * -2.0,
+            generic,
+            generic * 30.0,
+            unit_deviator * 0.05,
+        ];
+        for n in [1e-6, 1e-9, 1e-12, 1e-15] {
+            rates.push(unit_deviator * n);
+            rates.push(identity * 0.6 + unit_deviator * n);
+        }
+        rates
+    }
+
+    fn directions<const D: usize>() -> Vec<Tensor<D>> {
+        let mut directions = symmetric_basis::<D>();
+        directions.push(Tensor::<D>::from_fn(|i, j| {
+            0.2 + 0.3 * (i + j) as f64 - 0.1 * (i * j) as f64
+        }));
+        directions
+    }
+
+    fn assert_close<const D: usize>(what: &str, a: &Tensor<D>, b: &Tensor<D>, tolerance: f64) {
+        assert!(
+            (a - b).norm() <= tolerance * b.norm(),
+            "{what}: {a} vs {b} (relative difference {:e})",
+            (a - b).norm() / b.norm()
+        );
+    }
+
+    fn matches_saturating<const D: usize>() {
+        let (saturating, potential) = saturating_pair::<D>();
+        for rate in strain_rates::<D>() {
+            let at = format!("D = {D}, ε = {rate}");
+            assert_close(
+                &format!("stress {at}"),
+                &Viscosity::<D>::stress(&potential, &rate),
+                &Viscosity::<D>::stress(&saturating, &rate),
+                1e-12,
+            );
+            for direction in directions::<D>() {
+                assert_close(
+                    &format!("tangent {at}"),
+                    &Viscosity::<D>::tangent(&potential, &rate, &direction),
+                    &Viscosity::<D>::tangent(&saturating, &rate, &direction),
+                    1e-12,
+                );
+            }
+            let (ours, theirs) = (
+                Viscosity::<D>::potential(&potential, &rate),
+                Viscosity::<D>::potential(&saturating, &rate),
+            );
+            assert!(
+                (ours - theirs).abs() <= 1e-12 * theirs.abs(),
+                "potential {at}: {ours} vs {theirs}"
+            );
+        }
+    }
+
+    #[test]
+    fn potential_viscosity_matches_saturating_law_in_2d_and_3d_also_at_zero_deviator() {
+        matches_saturating::<2>();
+        matches_saturating::<3>();
+    }
+
+    fn tangent_and_stress_match_finite_differences<const D: usize>() {
+        let law = coupled();
+        for rate in strain_rates::<D>() {
+            let h = 1e-6 * rate.norm().max(1.0);
+            for direction in directions::<D>() {
+                let fd = (Viscosity::<D>::stress(&law, &(rate + direction * h))
+                    - Viscosity::<D>::stress(&law, &(rate - direction * h)))
+                    / (2.0 * h);
+                let exact = Viscosity::<D>::tangent(&law, &rate, &direction);
+                // the stress is C¹ but only Lipschitz-differentiable at ε_D = 0 in the direction
+                // of δ_D: central differences are exact up to O(h²) away from it, O(h) near it
+                assert!(
+                    (fd - exact).norm() <= 1e-6 * exact.norm().max(1.0),
+                    "D = {D}, ε = {rate}: tangent {exact} vs finite differences {fd}"
+                );
+                let fd = (Viscosity::<D>::potential(&law, &(rate + direction * h))
+                    - Viscosity::<D>::potential(&law, &(rate - direction * h)))
+                    / (2.0 * h);
+                let exact = Viscosity::<D>::stress(&law, &rate).dot(&direction);
+                assert!(
+                    (fd - exact).abs() <= 1e-7 * exact.abs().max(1.0),
+                    "D = {D}, ε = {rate}: σ:δ = {exact} vs finite differences of Φ {fd}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn potential_viscosity_tangent_and_stress_match_finite_differences() {
+        tangent_and_stress_match_finite_differences::<2>();
+        tangent_and_stress_match_finite_differences::<3>();
+    }
+
+    #[test]
+    fn potential_viscosity_is_continuous_across_the_limit_form_threshold() {
+        // n/|ε| just below and just above SMALL_DEVIATOR: limit form and chain rule agree up to
+        // the change of the t–n coupling terms, O(n) ≈ 1e-11 relative between the two points
+        let law = coupled();
+        let identity = Tensor::<3>::identity();
+        let unit = deviator(&sample_tensor()) / deviator(&sample_tensor()).norm();
+        let scale = (identity * 0.5).norm();
+        let below = identity * 0.5 + unit * (0.99 * SMALL_DEVIATOR * scale);
+        let above = identity * 0.5 + unit * (1.01 * SMALL_DEVIATOR * scale);
+        assert!(Invariants::of(&below).near_axis && !Invariants::of(&above).near_axis);
+        // at the same point, the limit form equals the chain rule to round-off
+        let limit = Invariants::of(&below);
+        let chain_rule = Invariants {
+            near_axis: false,
+            ..Invariants::of(&below)
+        };
+        assert_close(
+            "stress: limit form vs chain rule",
+            &law.stress_at(&limit),
+            &law.stress_at(&chain_rule),
+            1e-15,
+        );
+        for direction in directions::<3>() {
+            assert_close(
+                "tangent: limit form vs chain rule",
+                &law.tangent_at(&limit, &direction),
+                &law.tangent_at(&chain_rule, &direction),
+                1e-15,
+            );
+        }
+        for direction in directions::<3>() {
+            assert_close(
+                "tangent across the threshold",
+                &Viscosity::<3>::tangent(&law, &below, &direction),
+                &Viscosity::<3>::tangent(&law, &above, &direction),
+                1e-10,
+            );
+        }
+        assert_close(
+            "stress across the threshold",
+            &Viscosity::<3>::stress(&law, &below),
+            &Viscosity::<3>::stress(&law, &above),
+            1e-10,
+        );
+    }
+
+    #[test]
+    fn potential_viscosity_shifts_the_potential_to_vanish_at_zero() {
+        let shifted = PotentialViscosity::new(Arc::new(Polynomial {
+            a: 1.0,
+            b: 1.0,
+            f: 0.0,
+            ..Polynomial::default()
+        }));
+        let offset = PotentialViscosity::new(Arc::new(Coupled {
+            a: 1.0,
+            b: 1.0,
+            c: 0.0,
+            s: 1.0,
+        }));
+        assert_eq!(
+            Viscosity::<2>::potential(&shifted, &Tensor::<2>::zeros()),
+            0.0
+        );
+        assert_eq!(
+            Viscosity::<2>::potential(&offset, &Tensor::<2>::zeros()),
+            0.0
+        );
+        let exp = PotentialViscosity::new(Arc::new(Polynomial {
+            a: 1.0,
+            b: 1.0,
+            f: 1e-3,
+            ..Polynomial::default()
+        }));
+        assert_eq!(Viscosity::<2>::potential(&exp, &Tensor::<2>::zeros()), 0.0);
+        assert!(!Viscosity::<2>::is_linear(&exp));
+    }
+
+    #[test]
+    fn potential_viscosity_check_accepts_convex_potentials_with_lipschitz_gradient() {
+        let (_, saturating) = saturating_pair::<2>();
+        Viscosity::<2>::validate(&saturating).unwrap();
+        let (_, saturating) = saturating_pair::<3>();
+        Viscosity::<3>::validate(&saturating).unwrap();
+        Viscosity::<2>::validate(&coupled()).unwrap();
+        Viscosity::<3>::validate(&coupled()).unwrap();
+        // quartic growth stays within the 10⁸ spread up to |ε| = 1e3: accepted
+        let quartic = Polynomial {
+            a: 1.0,
+            b: 1.0,
+            e: 1.0,
+            ..Polynomial::default()
+        };
+        Viscosity::<3>::validate(&PotentialViscosity::new(Arc::new(quartic))).unwrap();
+        assert_eq!(sampled_rate_directions::<3>().len() * 15 + 1, 196);
+    }
+
+    fn rejection<const D: usize>(potential: Polynomial) -> String {
+        match Viscosity::<D>::validate(&PotentialViscosity::new(Arc::new(potential))) {
+            Ok(()) => panic!("accepted"),
+            Err(error) => {
+                let message = error.to_string();
+                assert!(message.contains("`viscosity.potential`"), "{message}");
+                message
+            }
+        }
+    }
+
+    #[test]
+    fn potential_viscosity_check_rejects_potentials_that_violate_3_4_naming_the_key() {
+        let base = Polynomial {
+            a: 1.0,
+            b: 1.0,
+            ..Polynomial::default()
+        };
+        // concave in the deviator
+        let message = rejection::<2>(Polynomial { a: -1.0, ..base });
+        assert!(message.contains("not convex"), "{message}");
+        // no deviatoric stiffness (tr ε² only)
+        let message = rejection::<3>(Polynomial { a: 0.0, ..base });
+        assert!(message.contains("not strongly convex"), "{message}");
+        // no volumetric stiffness
+        let message = rejection::<2>(Polynomial { b: 0.0, ..base });
+        assert!(message.contains("not strongly convex"), "{message}");
+        // a term in |ε_D|: not differentiable at ε_D = 0
+        let message = rejection::<2>(Polynomial { c: 1.0, ..base });
+        assert!(message.contains("Φ_n(t, 0)"), "{message}");
+        let message = rejection::<3>(Polynomial { c: 1e-9, ..base });
+        assert!(message.contains("Φ_n(t, 0)"), "{message}");
+        // loses convexity at large rates
+        let message = rejection::<3>(Polynomial { e: -0.9, ..base });
+        assert!(message.contains("not convex"), "{message}");
+        // grows too fast: exp(tr ε) overflows at tr ε = √3 · 1e3
+        let message = rejection::<3>(Polynomial { f: 1.0, ..base });
+        assert!(message.contains("not finite"), "{message}");
+    }
+
+    #[test]
+    fn potential_viscosity_check_rejects_a_tangent_spread_over_more_than_1e8() {
+        // Φ = n² + t² + n⁶-like growth: modeled by a steep quartic, 12e n² ≈ 1.2e15 at n = 1e3
+        let message = rejection::<2>(Polynomial {
+            a: 1.0,
+            b: 1.0,
+            e: 1e9,
+            ..Polynomial::default()
+        });
+        assert!(message.contains("spread over more than 10⁸"), "{message}");
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn potential_viscosity_tangent_is_symmetric_and_strongly_monotone(
+            entries in proptest::collection::vec(-1.0f64..1.0, 12),
+            log_scale in -6.0f64..3.0,
+        ) {
+            let law = coupled();
+            let symmetric = |values: &[f64]| {
+                let m = Tensor::<3>::from_column_slice(values);
+                (m + m.transpose()) * 0.5
+            };
+            let rate = symmetric(&entries[..9]) * 10f64.powf(log_scale);
+            let first = symmetric(&entries[3..12]);
+            let second = symmetric(&[entries[0], entries[5], entries[7], entries[1], entries[11],
+                entries[2], entries[4], entries[9], entries[6]]);
+            let a = first.dot(&Viscosity::<3>::tangent(&law, &rate, &second));
+            let b = second.dot(&Viscosity::<3>::tangent(&law, &rate, &first));
+            let size = first.norm() * second.norm();
+            proptest::prop_assert!((a - b).abs() <= 1e-12 * size.max(1e-300), "{} vs {}", a, b);
+            // tangent ≥ min(2a, 2bd) = min(1.6, 1.8)
+            let quadratic = first.dot(&Viscosity::<3>::tangent(&law, &rate, &first));
+            proptest::prop_assert!(quadratic >= 1.6 * first.norm_squared() * (1.0 - 1e-12));
+        }
+    }
+
+    /// μ(β) = μ₀ β², λ(β) = λ₀ β³ (+ `lambda_shift`), derivatives by hand.
+    struct PowerModuli {
+        shear: f64,
+        lambda: f64,
+        lambda_shift: f64,
+    }
+
+    impl DamageModuli for PowerModuli {
+        fn shear_modulus(&self, beta: f64) -> (f64, f64) {
+            (self.shear * beta * beta, 2.0 * self.shear * beta)
+        }
+        fn lame_lambda(&self, beta: f64) -> (f64, f64) {
+            (
+                self.lambda * beta.powi(3) + self.lambda_shift,
+                3.0 * self.lambda * beta * beta,
+            )
+        }
+    }
+
+    /// μ(β) = μ β, λ(β) = λ β: the moduli of [`DamagedHooke`].
+    struct LinearModuli(DamagedHooke);
+
+    impl DamageModuli for LinearModuli {
+        fn shear_modulus(&self, beta: f64) -> (f64, f64) {
+            (self.0.shear_modulus * beta, self.0.shear_modulus)
+        }
+        fn lame_lambda(&self, beta: f64) -> (f64, f64) {
+            (self.0.lame_lambda * beta, self.0.lame_lambda)
+        }
+    }
+
+    #[test]
+    fn moduli_elasticity_with_linear_moduli_is_damaged_hooke() {
+        let hooke = DamagedHooke {
+            shear_modulus: 1.3,
+            lame_lambda: 0.7,
+        };
+        let law = ModuliElasticity {
+            moduli: Arc::new(LinearModuli(hooke)),
+        };
+        let eps = sample_tensor();
+        let dir = Tensor::<3>::new(0.1, 0.2, 0.0, 0.2, -0.3, 0.4, 0.0, 0.4, 0.25);
+        for beta in [-0.5, 0.0, 0.3, 1.0, 1.4] {
+            assert_close(
+                "stress",
+                &Elasticity::<3>::stress(&law, &eps, beta),
+                &Elasticity::<3>::stress(&hooke, &eps, beta),
+                1e-15,
+            );
+            assert_close(
+                "strain derivative",
+                &Elasticity::<3>::strain_derivative(&law, &eps, beta, &dir),
+                &Elasticity::<3>::strain_derivative(&hooke, &eps, beta, &dir),
+                1e-15,
+            );
+            assert_eq!(
+                Elasticity::<3>::damage_derivative(&law, &eps, beta),
+                Elasticity::<3>::damage_derivative(&hooke, &eps, beta)
+            );
+        }
+        Elasticity::<3>::validate(&law).unwrap();
+    }
+
+    #[test]
+    fn moduli_elasticity_derivatives_match_finite_differences_and_clamp() {
+        let law = ModuliElasticity {
+            moduli: Arc::new(PowerModuli {
+                shear: 2.0,
+                lambda: -0.5,
+                lambda_shift: 0.0,
+            }),
+        };
+        Elasticity::<2>::validate(&law).unwrap();
+        let eps = Tensor::<2>::new(0.1, 0.2, 0.2, -0.3);
+        let dir = Tensor::<2>::new(-0.4, 0.1, 0.1, 0.6);
+        let h = 1e-6;
+        for beta in [0.2, 0.5, 0.9] {
+            let fd = (Elasticity::<2>::stress(&law, &eps, beta + h)
+                - Elasticity::<2>::stress(&law, &eps, beta - h))
+                / (2.0 * h);
+            assert_close(
+                "∂G/∂β",
+                &Elasticity::<2>::damage_derivative(&law, &eps, beta),
+                &fd,
+                1e-8,
+            );
+            let fd = (Elasticity::<2>::stress(&law, &(eps + dir * h), beta)
+                - Elasticity::<2>::stress(&law, &(eps - dir * h), beta))
+                / (2.0 * h);
+            assert_close(
+                "∂G/∂ε",
+                &Elasticity::<2>::strain_derivative(&law, &eps, beta, &dir),
+                &fd,
+                1e-8,
+            );
+        }
+        // clamped outside [0, 1], one-sided derivative at the ends
+        assert_eq!(
+            Elasticity::<2>::stress(&law, &eps, 1.5),
+            Elasticity::<2>::stress(&law, &eps, 1.0)
+        );
+        assert_eq!(
+            Elasticity::<2>::stress(&law, &eps, -1.0),
+            Tensor::<2>::zeros()
+        );
+        assert_eq!(
+            Elasticity::<2>::damage_derivative(&law, &eps, 1.2),
+            Tensor::<2>::zeros()
+        );
+        let at_one = eps * 8.0 + Tensor::<2>::identity() * (-1.5 * eps.trace());
+        assert_close(
+            "∂G/∂β at β = 1",
+            &Elasticity::<2>::damage_derivative(&law, &eps, 1.0),
+            &at_one,
+            1e-15,
+        );
+    }
+
+    #[test]
+    fn moduli_elasticity_check_rejects_indefinite_or_degenerate_moduli_naming_the_key() {
+        let check = |shear: f64, lambda: f64, lambda_shift: f64| {
+            Elasticity::<3>::validate(&ModuliElasticity {
+                moduli: Arc::new(PowerModuli {
+                    shear,
+                    lambda,
+                    lambda_shift,
+                }),
+            })
+            .map_err(|e| e.to_string())
+        };
+        assert!(check(1.0, 0.5, 0.0).is_ok());
+        let message = check(-1.0, 0.5, 0.0).unwrap_err();
+        assert!(message.contains("`elasticity.shear_modulus`"), "{message}");
+        let message = check(0.0, 0.5, 0.0).unwrap_err();
+        assert!(
+            message.contains("`elasticity.shear_modulus`") && message.contains("μ(1)"),
+            "{message}"
+        );
+        // 2μ + 3λ < 0 near β = 1 only
+        let message = check(1.0, -1.0, 0.0).unwrap_err();
+        assert!(message.contains("`elasticity.lame_lambda`"), "{message}");
+        // 2μ + 3λ < 0 at β = 0 (λ(0) = −0.1)
+        let message = check(1.0, 0.5, -0.1).unwrap_err();
+        assert!(
+            message.contains("`elasticity.lame_lambda`") && message.contains("β = 0"),
+            "{message}"
+        );
+        let message = check(f64::NAN, 0.5, 0.0).unwrap_err();
+        assert!(
+            message.contains("`elasticity.shear_modulus`") && message.contains("not finite"),
+            "{message}"
+        );
     }
 
     #[test]

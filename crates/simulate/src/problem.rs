@@ -12,7 +12,7 @@
 //! box = { lower = [0, 0], upper = [4, 1], cells = [32, 8], sides = { x_min = "clamped", y_min = "contact" } }
 //! # ... or a Gmsh 4.1 file (path relative to the problem file), groups by name or tag:
 //! # gmsh = { file = "part.msh", clamped = ["left"], traction = ["top", 7], contact = ["bottom"] }
-//! [laws]                   # as in the verification case files
+//! [laws]                   # as in the verification case files (README: "Laws in case and problem files")
 //! # ...
 //! [loads]                  # all optional (zero, resp. β0 = 1)
 //! body_force = ["0", "0"]                      # f0 in x, y, z, t

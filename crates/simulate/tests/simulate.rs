@@ -548,7 +548,21 @@ fn bad_problem_files_name_the_key() {
             "gmsh = { file = \"a.msh\" }\nbox = {",
             "key `mesh`",
         ),
-        ("stiffness = 4.0", "stiffness = -4.0", "key `laws`"),
+        (
+            "stiffness = 4.0",
+            "stiffness = -4.0",
+            "key `laws.contact.stiffness`",
+        ),
+        (
+            "viscosity = { kind = \"linear\", shear = 3.0, bulk = 1.5 }",
+            "viscosity = { kind = \"potential\", potential = \"tr_eps^2\" }",
+            "key `laws.viscosity.potential`: `tr_eps^2`",
+        ),
+        (
+            "elasticity = { kind = \"damaged_hooke\", shear_modulus = 1.0, lame_lambda = 1.0 }",
+            "elasticity = { kind = \"moduli\", shear_modulus = \"beta - 1\", lame_lambda = \"0\" }",
+            "key `laws.elasticity.shear_modulus`: `beta - 1`",
+        ),
         ("dim = 2", "dim = 3", "key `dim`"),
         ("steps = 250", "steps = 0", "key `steps`"),
         ("degree = 1", "degree = 3", "key `degree`"),
@@ -580,6 +594,44 @@ fn bad_problem_files_name_the_key() {
     // an unknown key is located by line
     let error = error_of("[output]", "[outptu]");
     assert!(error.contains("line "), "{error}");
+}
+
+#[test]
+fn potential_and_moduli_laws_load_and_run_like_the_linear_laws_they_equal() {
+    // 𝒜: η|ε|² + ζ/2 tr² = η|ε_D|² + (η/2 + ζ/2) tr² in 2D with (η, ζ) = (3, 1.5);
+    // G: μ(β) = β, λ(β) = β is damaged_hooke with μ = λ = 1
+    let dir = scratch("simulate-user-laws");
+    let linear = EXAMPLE_2D
+        .replace("cells = [40, 20]", "cells = [8, 4]")
+        .replace("steps = 250", "steps = 2")
+        .replace("final_time = 5.0", "final_time = 0.1")
+        .replace("every = 10", "every = 1");
+    let user = linear
+        .replace(
+            r#"viscosity = { kind = "linear", shear = 3.0, bulk = 1.5 }"#,
+            r#"viscosity = { kind = "potential", potential = "3*dev_norm^2 + (3/2 + 1.5/2)*tr_eps^2" }"#,
+        )
+        .replace(
+            r#"elasticity = { kind = "damaged_hooke", shear_modulus = 1.0, lame_lambda = 1.0 }"#,
+            r#"elasticity = { kind = "moduli", shear_modulus = "beta", lame_lambda = "beta" }"#,
+        );
+    assert!(user.contains("kind = \"potential\"") && user.contains("kind = \"moduli\""));
+    let mut states = Vec::new();
+    for (name, text) in [("linear", &linear), ("user", &user)] {
+        let problem = dir.join(format!("{name}.toml"));
+        std::fs::write(&problem, text).unwrap();
+        let out = dir.join(name);
+        let outcome = simulate::run_file(&problem, &quiet(&out)).unwrap();
+        assert_eq!(outcome.last_step, 2, "{name}");
+        states.push(read_saved_state(&out).unwrap());
+    }
+    let close = |a: &[f64], b: &[f64]| {
+        let scale = a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+        a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-8 * scale)
+    };
+    assert!(close(&states[0].displacement, &states[1].displacement));
+    assert!(close(&states[0].velocity, &states[1].velocity));
+    assert!(close(&states[0].damage, &states[1].damage));
 }
 
 #[test]

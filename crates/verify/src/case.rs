@@ -8,11 +8,14 @@ use crate::expr::Expr;
 use crate::manufactured::{value, ExactSolution, Laws};
 use crate::VerifyError;
 use contact_damage::laws::{
-    DamageSource, DamagedHooke, LinearViscosity, NormalComplianceCoulomb, SaturatingViscosity,
-    Tensor, TruncatedFremond, Viscosity,
+    DamageModuli, DamageSource, DamagedHooke, Elasticity, InvariantJet, InvariantPotential,
+    LinearViscosity, ModuliElasticity, NormalComplianceCoulomb, PotentialViscosity,
+    SaturatingViscosity, Tensor, TruncatedFremond, Viscosity,
 };
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::{Data, Model, Problem, SchemeSettings};
+use nalgebra::SVector;
+use num_dual::{Dual2SVec64, Dual64};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -22,6 +25,10 @@ use std::sync::Arc;
 pub const FIELD_VARIABLES: [&str; 4] = ["x", "y", "z", "t"];
 /// The variables of a damage-source expression.
 pub const SOURCE_VARIABLES: [&str; 3] = ["beta", "tr_eps", "eps_eps"];
+/// The variables of a viscosity potential: the invariants tr ε and |ε_D| of the strain rate.
+pub const POTENTIAL_VARIABLES: [&str; 2] = ["tr_eps", "dev_norm"];
+/// The variable of the damage-dependent elastic moduli.
+pub const MODULI_VARIABLES: [&str; 1] = ["beta"];
 
 /// The case file, as written in TOML.
 #[derive(Debug, Clone, Deserialize)]
@@ -92,6 +99,10 @@ pub enum ViscosityFile {
         extra_shear: f64,
         rate_scale: f64,
     },
+    /// 𝒜 = ∂Φ/∂ε for a convex potential Φ written as an expression in `tr_eps` = tr ε and
+    /// `dev_norm` = |ε_D| ([`PotentialViscosity`]; derivatives by automatic differentiation,
+    /// checked for (3.4) at sampled strain rates when the file is loaded).
+    Potential { potential: String },
 }
 
 /// Elasticity laws.
@@ -102,6 +113,12 @@ pub enum ElasticityFile {
     DamagedHooke {
         shear_modulus: f64,
         lame_lambda: f64,
+    },
+    /// G = 2μ(β) ε + λ(β) tr(ε) I with μ, λ expressions in `beta` ([`ModuliElasticity`];
+    /// β clamped to [0, 1], derivatives by automatic differentiation).
+    Moduli {
+        shear_modulus: String,
+        lame_lambda: String,
     },
 }
 
@@ -230,18 +247,21 @@ pub fn parse_sides<const D: usize>(
 }
 
 impl LawsFile {
-    /// Builds and validates the laws in dimension D: a damage-source expression is parsed with
-    /// the variables [`SOURCE_VARIABLES`] and the given `constants`; every law is validated
-    /// and κ must be positive. Errors name `origin` and the key under `laws`.
+    /// Builds and validates the laws in dimension D: expressions are parsed with the given
+    /// `constants` and the variables [`SOURCE_VARIABLES`] (damage source),
+    /// [`POTENTIAL_VARIABLES`] (viscosity potential) or [`MODULI_VARIABLES`] (elastic moduli);
+    /// every law is validated (a viscosity potential and elastic moduli by the sampling checks of
+    /// [`PotentialViscosity`] and [`ModuliElasticity`]) and κ must be positive. Errors name
+    /// `origin` and the key under `laws` (e.g. `laws.viscosity.potential`, with the expression).
     pub fn build<const D: usize>(
         &self,
         origin: &str,
         constants: &BTreeMap<String, f64>,
     ) -> Result<Laws<D>, VerifyError> {
         let laws_file = self;
-        let viscosity: Arc<dyn Viscosity<D>> = match laws_file.viscosity {
-            ViscosityFile::Linear { shear, bulk } => Arc::new(LinearViscosity { shear, bulk }),
-            ViscosityFile::Saturating {
+        let viscosity: Arc<dyn Viscosity<D>> = match &laws_file.viscosity {
+            &ViscosityFile::Linear { shear, bulk } => Arc::new(LinearViscosity { shear, bulk }),
+            &ViscosityFile::Saturating {
                 shear,
                 bulk,
                 extra_shear,
@@ -251,15 +271,48 @@ impl LawsFile {
                 extra_shear,
                 rate_scale,
             }),
+            ViscosityFile::Potential { potential } => {
+                Arc::new(PotentialViscosity::new(Arc::new(ExpressionPotential {
+                    expr: parse_expr(
+                        origin,
+                        "laws.viscosity.potential",
+                        potential,
+                        &POTENTIAL_VARIABLES,
+                        constants,
+                    )?,
+                })))
+            }
         };
-        let ElasticityFile::DamagedHooke {
-            shear_modulus,
-            lame_lambda,
-        } = laws_file.elasticity;
-        let elasticity = Arc::new(DamagedHooke {
-            shear_modulus,
-            lame_lambda,
-        });
+        let elasticity: Arc<dyn Elasticity<D>> = match &laws_file.elasticity {
+            &ElasticityFile::DamagedHooke {
+                shear_modulus,
+                lame_lambda,
+            } => Arc::new(DamagedHooke {
+                shear_modulus,
+                lame_lambda,
+            }),
+            ElasticityFile::Moduli {
+                shear_modulus,
+                lame_lambda,
+            } => Arc::new(ModuliElasticity {
+                moduli: Arc::new(ExpressionModuli {
+                    shear_modulus: parse_expr(
+                        origin,
+                        "laws.elasticity.shear_modulus",
+                        shear_modulus,
+                        &MODULI_VARIABLES,
+                        constants,
+                    )?,
+                    lame_lambda: parse_expr(
+                        origin,
+                        "laws.elasticity.lame_lambda",
+                        lame_lambda,
+                        &MODULI_VARIABLES,
+                        constants,
+                    )?,
+                }),
+            }),
+        };
         let damage_source: Arc<dyn DamageSource<D>> = match &laws_file.damage_source {
             DamageSourceFile::Fremond {
                 lambda_d,
@@ -294,14 +347,104 @@ impl LawsFile {
             contact,
             damage_diffusion: laws_file.damage_diffusion,
         };
-        let law_error = |e: contact_damage::Error| case_error(origin, "laws", e.to_string());
+        let law_error = |e: contact_damage::Error| self.law_error(origin, e);
         laws.viscosity.validate().map_err(law_error)?;
-        contact_damage::laws::Elasticity::<D>::validate(laws.elasticity.as_ref())
-            .map_err(law_error)?;
+        laws.elasticity.validate().map_err(law_error)?;
         laws.damage_source.validate().map_err(law_error)?;
         laws.contact.validate().map_err(law_error)?;
         positive(origin, "laws.damage_diffusion", laws.damage_diffusion)?;
         Ok(laws)
+    }
+}
+
+impl LawsFile {
+    /// A law's validation error as a case error: the key is `laws.` followed by the parameter
+    /// the law names (`laws` when it names none), and the message starts with the expression
+    /// when the parameter is one.
+    fn law_error(&self, origin: &str, error: contact_damage::Error) -> VerifyError {
+        let name = match &error {
+            contact_damage::Error::InvalidParameter { name, .. } => Some(name.as_str()),
+            _ => None,
+        };
+        // the leading key-like part of the name (`damage_source(0, β)` → `damage_source`)
+        let path = name.map_or("", |name| {
+            let end = name
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '.'))
+                .unwrap_or(name.len());
+            name[..end].trim_matches('.')
+        });
+        let key = if path.is_empty() || path == "laws" {
+            "laws".to_string()
+        } else if path.starts_with("laws.") {
+            path.to_string()
+        } else {
+            format!("laws.{path}")
+        };
+        let expression = match (key.as_str(), &self.viscosity, &self.elasticity) {
+            ("laws.viscosity.potential", ViscosityFile::Potential { potential }, _) => {
+                Some(potential)
+            }
+            ("laws.elasticity.shear_modulus", _, ElasticityFile::Moduli { shear_modulus, .. }) => {
+                Some(shear_modulus)
+            }
+            ("laws.elasticity.lame_lambda", _, ElasticityFile::Moduli { lame_lambda, .. }) => {
+                Some(lame_lambda)
+            }
+            _ => None,
+        };
+        match expression {
+            Some(source) => case_error(origin, &key, format!("`{source}`: {error}")),
+            None => case_error(origin, &key, error.to_string()),
+        }
+    }
+}
+
+/// A viscosity potential Φ(tr ε, |ε_D|) given by an expression in [`POTENTIAL_VARIABLES`]; Φ and
+/// its first and second derivatives by second-order dual numbers (num-dual).
+pub struct ExpressionPotential {
+    expr: Expr,
+}
+
+impl InvariantPotential for ExpressionPotential {
+    fn value(&self, trace: f64, dev_norm: f64) -> f64 {
+        self.expr.eval_f64(&[trace, dev_norm])
+    }
+
+    fn jet(&self, trace: f64, dev_norm: f64) -> InvariantJet {
+        let (value, gradient, hessian) = num_dual::hessian(
+            |v: SVector<Dual2SVec64<2>, 2>| self.expr.eval(&[v[0], v[1]]),
+            &SVector::from([trace, dev_norm]),
+        );
+        InvariantJet {
+            value,
+            gradient: [gradient[0], gradient[1]],
+            hessian: [
+                [hessian[(0, 0)], hessian[(0, 1)]],
+                [hessian[(1, 0)], hessian[(1, 1)]],
+            ],
+        }
+    }
+}
+
+/// Elastic moduli μ(β), λ(β) given by expressions in [`MODULI_VARIABLES`]; derivatives by dual
+/// numbers (num-dual).
+pub struct ExpressionModuli {
+    shear_modulus: Expr,
+    lame_lambda: Expr,
+}
+
+fn value_and_slope(expr: &Expr, beta: f64) -> (f64, f64) {
+    let result = expr.eval(&[Dual64::new(beta, 1.0)]);
+    (result.re, result.eps)
+}
+
+impl DamageModuli for ExpressionModuli {
+    fn shear_modulus(&self, damage: f64) -> (f64, f64) {
+        value_and_slope(&self.shear_modulus, damage)
+    }
+
+    fn lame_lambda(&self, damage: f64) -> (f64, f64) {
+        value_and_slope(&self.lame_lambda, damage)
     }
 }
 
@@ -668,5 +811,383 @@ impl<const D: usize> Case<D> {
             steps,
             settings: SchemeSettings::default(),
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SLIP2D: &str = include_str!("../../../verification/slip2d.toml");
+    const SLIP3D: &str = include_str!("../../../verification/slip3d.toml");
+    const LINEAR_VISCOSITY: &str = r#"viscosity = { kind = "linear", shear = 1.0, bulk = 0.5 }"#;
+    const HOOKE: &str =
+        r#"elasticity = { kind = "damaged_hooke", shear_modulus = 1.0, lame_lambda = 1.0 }"#;
+    const SATURATING: &str = r#"viscosity = { kind = "saturating", shear = 1.0, bulk = 0.5, extra_shear = 0.5, rate_scale = 0.2 }"#;
+
+    /// The saturating law (η, ζ, η₁, ε₀) = (1, 0.5, 0.5, 0.2) as a potential in dimension d:
+    /// η|ε|² + ζ/2 tr² = η|ε_D|² + (η/d + ζ/2) tr², since |ε|² = |ε_D|² + tr²/d.
+    fn saturating_potential(dim: usize) -> String {
+        format!(
+            "1.0*dev_norm^2 + (1.0/{dim} + 0.5/2)*tr_eps^2 + 0.5*0.04*(sqrt(1 + dev_norm^2/0.04) - 1)"
+        )
+    }
+
+    fn potential_line(potential: &str) -> String {
+        format!(r#"viscosity = {{ kind = "potential", potential = "{potential}" }}"#)
+    }
+
+    fn case<const D: usize>(
+        text: &str,
+        replacements: &[(&str, &str)],
+    ) -> Result<Case<D>, VerifyError> {
+        let mut text = text.to_string();
+        for (from, to) in replacements {
+            assert!(text.contains(from), "test setup: `{from}` not in the case");
+            text = text.replacen(from, to, 1);
+        }
+        Case::new(parse_case_file(&text, "my_case.toml")?, "my_case.toml")
+    }
+
+    /// The error of the 2D case slip2d with the viscosity and elasticity lines replaced.
+    fn rejection(viscosity: &str, elasticity: &str) -> String {
+        match case::<2>(
+            SLIP2D,
+            &[(LINEAR_VISCOSITY, viscosity), (HOOKE, elasticity)],
+        ) {
+            Ok(_) => panic!("`{viscosity}`, `{elasticity}` was accepted"),
+            Err(error) => {
+                let message = error.to_string();
+                assert!(message.contains("case `my_case.toml`"), "{message}");
+                message
+            }
+        }
+    }
+
+    fn assert_close(what: &str, ours: &[f64], theirs: &[f64], tolerance: f64) {
+        let difference: f64 = ours
+            .iter()
+            .zip(theirs)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let size: f64 = theirs.iter().map(|b| b * b).sum::<f64>().sqrt();
+        assert!(
+            difference <= tolerance * size,
+            "{what}: {ours:?} vs {theirs:?} (relative difference {:e})",
+            difference / size
+        );
+    }
+
+    fn same_source_terms<const D: usize>(text: &str, replacements: [(&str, &str); 2]) {
+        let reference = case::<D>(text, &replacements[..1]).unwrap();
+        let ours = case::<D>(text, &replacements[1..]).unwrap();
+        let mut x = [0.0; D];
+        for (k, t) in [0.1, 0.45, 0.9].into_iter().enumerate() {
+            for (i, xi) in x.iter_mut().enumerate() {
+                *xi = 0.15 + 0.3 * ((k + 2 * i) % 3) as f64;
+            }
+            let at = format!("D = {D}, x = {x:?}, t = {t}");
+            assert_close(
+                &format!("f0 {at}"),
+                &ours.exact.body_force(&ours.laws, &x, t),
+                &reference.exact.body_force(&reference.laws, &x, t),
+                1e-10,
+            );
+            let mut normal = [0.0; D];
+            normal[D - 1] = 1.0;
+            assert_close(
+                &format!("f2 {at}"),
+                &ours.exact.traction(&ours.laws, &x, t, &normal),
+                &reference.exact.traction(&reference.laws, &x, t, &normal),
+                1e-10,
+            );
+        }
+    }
+
+    #[test]
+    fn potential_law_reproducing_the_saturating_law_gives_the_same_source_terms() {
+        for (dim, text) in [(2, SLIP2D), (3, SLIP3D)] {
+            let potential = potential_line(&saturating_potential(dim));
+            let replacements = [
+                (LINEAR_VISCOSITY, SATURATING),
+                (LINEAR_VISCOSITY, potential.as_str()),
+            ];
+            if dim == 2 {
+                same_source_terms::<2>(text, replacements);
+            } else {
+                same_source_terms::<3>(text, replacements);
+            }
+        }
+    }
+
+    #[test]
+    fn moduli_law_reproducing_damaged_hooke_gives_the_same_source_terms() {
+        let moduli =
+            r#"elasticity = { kind = "moduli", shear_modulus = "1.0*beta", lame_lambda = "beta" }"#;
+        same_source_terms::<2>(SLIP2D, [(HOOKE, HOOKE), (HOOKE, moduli)]);
+        same_source_terms::<3>(SLIP3D, [(HOOKE, HOOKE), (HOOKE, moduli)]);
+    }
+
+    fn expression_matches_saturating<const D: usize>() {
+        let constants = BTreeMap::new();
+        let ours = PotentialViscosity::new(Arc::new(ExpressionPotential {
+            expr: Expr::parse(&saturating_potential(D), &POTENTIAL_VARIABLES, &constants).unwrap(),
+        }));
+        let theirs = SaturatingViscosity {
+            linear: LinearViscosity {
+                shear: 1.0,
+                bulk: 0.5,
+            },
+            extra_shear: 0.5,
+            rate_scale: 0.2,
+        };
+        let generic =
+            Tensor::<D>::from_fn(|i, j| 0.3 - 0.2 * (i + j) as f64 + 0.5 * (i * j) as f64);
+        let dev = generic - Tensor::<D>::identity() * (generic.trace() / D as f64);
+        let unit = dev / dev.norm();
+        let identity = Tensor::<D>::identity();
+        let mut rates = vec![
+            Tensor::<D>::zeros(),
+            identity * 0.4,
+            generic,
+            generic * 20.0,
+        ];
+        for n in [1e-3, 1e-9, 1e-12] {
+            rates.push(unit * n);
+            rates.push(identity * -0.3 + unit * n);
+        }
+        let direction =
+            Tensor::<D>::from_fn(|i, j| 0.1 + 0.4 * (i + j) as f64 - 0.3 * (i * j) as f64);
+        for rate in rates {
+            let relative = |a: Tensor<D>, b: Tensor<D>| (a - b).norm() / b.norm().max(1e-300);
+            let stress = relative(
+                Viscosity::<D>::stress(&ours, &rate),
+                Viscosity::<D>::stress(&theirs, &rate),
+            );
+            let tangent = relative(
+                Viscosity::<D>::tangent(&ours, &rate, &direction),
+                Viscosity::<D>::tangent(&theirs, &rate, &direction),
+            );
+            let (a, b) = (
+                Viscosity::<D>::potential(&ours, &rate),
+                Viscosity::<D>::potential(&theirs, &rate),
+            );
+            assert!(
+                stress <= 1e-12 && tangent <= 1e-12 && (a - b).abs() <= 1e-12 * b.abs(),
+                "D = {D}, ε = {rate}: relative differences stress {stress:e}, tangent {tangent:e}, potential {a} vs {b}"
+            );
+        }
+        Viscosity::<D>::validate(&ours).unwrap();
+    }
+
+    #[test]
+    fn expression_potential_matches_saturating_law_in_2d_and_3d_also_at_zero_deviator() {
+        expression_matches_saturating::<2>();
+        expression_matches_saturating::<3>();
+    }
+
+    #[test]
+    fn potential_and_moduli_may_use_the_case_constants() {
+        let case = case::<2>(
+            SLIP2D,
+            &[
+                ("[domain]", "[constants]\neta = 1.0\nmu = 2.0\n\n[domain]"),
+                (
+                    LINEAR_VISCOSITY,
+                    r#"viscosity = { kind = "potential", potential = "eta*dev_norm^2 + eta*tr_eps^2" }"#,
+                ),
+                (
+                    HOOKE,
+                    r#"elasticity = { kind = "moduli", shear_modulus = "mu*beta^2", lame_lambda = "0.5*beta" }"#,
+                ),
+            ],
+        )
+        .unwrap();
+        let rate = Tensor::<2>::new(0.1, 0.2, 0.2, -0.3);
+        // 2η ε_D + 2η tr ε I = 2 ε + tr ε I in 2D with η = 1
+        let expected = rate * 2.0 + Tensor::<2>::identity() * rate.trace();
+        assert!((case.laws.viscosity.stress(&rate) - expected).norm() < 1e-14);
+        let strain = rate;
+        let expected =
+            strain * (2.0 * 2.0 * 0.25) + Tensor::<2>::identity() * (0.25 * strain.trace());
+        assert!((case.laws.elasticity.stress(&strain, 0.5) - expected).norm() < 1e-14);
+        let slope = strain * (2.0 * 2.0) + Tensor::<2>::identity() * (0.5 * strain.trace());
+        assert!((case.laws.elasticity.damage_derivative(&strain, 0.5) - slope).norm() < 1e-14);
+    }
+
+    #[test]
+    fn case_rejects_concave_potential_naming_the_key() {
+        let message = rejection(&potential_line("-dev_norm^2 + tr_eps^2"), HOOKE);
+        assert!(
+            message.contains("key `laws.viscosity.potential`")
+                && message.contains("`-dev_norm^2 + tr_eps^2`")
+                && message.contains("not convex"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn case_rejects_potential_not_strongly_convex_in_the_deviator_naming_the_key() {
+        let message = rejection(&potential_line("tr_eps^2"), HOOKE);
+        assert!(
+            message.contains("key `laws.viscosity.potential`") && message.contains("(3.4)"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn case_rejects_potential_without_volumetric_stiffness_naming_the_key() {
+        // exp(tr ε)·0 adds nothing (and overflows to inf·0 = NaN at large rates)
+        let message = rejection(&potential_line("dev_norm^2 + exp(tr_eps)*0"), HOOKE);
+        assert!(
+            message.contains("key `laws.viscosity.potential`"),
+            "{message}"
+        );
+        let message = rejection(&potential_line("dev_norm^2 + 0*tr_eps"), HOOKE);
+        assert!(
+            message.contains("key `laws.viscosity.potential`") && message.contains("(3.4)"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn case_rejects_potential_not_differentiable_at_zero_deviator_naming_the_key() {
+        let message = rejection(&potential_line("dev_norm^2 + tr_eps^2 + dev_norm"), HOOKE);
+        assert!(
+            message.contains("key `laws.viscosity.potential`") && message.contains("Φ_n(t, 0)"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn case_rejects_potential_losing_convexity_at_large_rates_naming_the_key() {
+        let message = rejection(
+            &potential_line("dev_norm^2 + tr_eps^2 - 0.9*dev_norm^4"),
+            HOOKE,
+        );
+        assert!(
+            message.contains("key `laws.viscosity.potential`") && message.contains("not convex"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn case_rejects_potential_with_superlinear_gradient_naming_the_key() {
+        let message = rejection(&potential_line("dev_norm^2 + tr_eps^2 + dev_norm^6"), HOOKE);
+        assert!(
+            message.contains("key `laws.viscosity.potential`")
+                && message.contains("spread over more than 10⁸"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn case_rejects_unknown_variable_in_potential_naming_the_key() {
+        let message = rejection(&potential_line("eps^2 + tr_eps^2"), HOOKE);
+        assert!(
+            message.contains("key `laws.viscosity.potential`")
+                && message.contains("unknown variable `eps`"),
+            "{message}"
+        );
+    }
+
+    fn moduli_line(shear: &str, lambda: &str) -> String {
+        format!(
+            r#"elasticity = {{ kind = "moduli", shear_modulus = "{shear}", lame_lambda = "{lambda}" }}"#
+        )
+    }
+
+    #[test]
+    fn case_rejects_negative_shear_modulus_naming_the_key() {
+        let message = rejection(LINEAR_VISCOSITY, &moduli_line("beta - 0.1", "beta"));
+        assert!(
+            message.contains("key `laws.elasticity.shear_modulus`")
+                && message.contains("`beta - 0.1`")
+                && message.contains("≥ 0"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn case_rejects_vanishing_undamaged_shear_modulus_naming_the_key() {
+        let message = rejection(LINEAR_VISCOSITY, &moduli_line("beta*(1 - beta)", "beta"));
+        assert!(
+            message.contains("key `laws.elasticity.shear_modulus`") && message.contains("μ(1)"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn case_rejects_negative_bulk_modulus_naming_the_key() {
+        // 2μ + 2λ = 2β − 3β² < 0 for β > 2/3
+        let message = rejection(LINEAR_VISCOSITY, &moduli_line("beta", "-1.5*beta^2"));
+        assert!(
+            message.contains("key `laws.elasticity.lame_lambda`")
+                && message.contains("`-1.5*beta^2`")
+                && message.contains("2μ(β) + dλ(β)"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn case_rejects_non_finite_modulus_naming_the_key() {
+        let message = rejection(LINEAR_VISCOSITY, &moduli_line("beta", "1/beta"));
+        assert!(
+            message.contains("key `laws.elasticity.lame_lambda`") && message.contains("not finite"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn case_rejects_unknown_variable_in_moduli_naming_the_key() {
+        let message = rejection(LINEAR_VISCOSITY, &moduli_line("beta*t", "beta"));
+        assert!(
+            message.contains("key `laws.elasticity.shear_modulus`")
+                && message.contains("unknown variable `t`"),
+            "{message}"
+        );
+    }
+
+    #[test]
+    fn case_names_the_key_of_other_invalid_law_parameters() {
+        let message = rejection(
+            r#"viscosity = { kind = "linear", shear = -1.0, bulk = 0.5 }"#,
+            HOOKE,
+        );
+        assert!(message.contains("key `laws.viscosity.shear`"), "{message}");
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn expression_potential_tangent_is_symmetric_and_strongly_monotone(
+            entries in proptest::collection::vec(-1.0f64..1.0, 12),
+            log_scale in -6.0f64..3.0,
+        ) {
+            // Φ = |ε_D|² + 0.5 tr² + 0.3 (√(1 + |ε_D|² + tr²) − 1), coupled in (t, n):
+            // tangent ≥ min(2, 2·0.5·3) = 2 in 3D
+            let constants = BTreeMap::new();
+            let law = PotentialViscosity::new(Arc::new(ExpressionPotential {
+                expr: Expr::parse(
+                    "dev_norm^2 + 0.5*tr_eps^2 + 0.3*(sqrt(1 + dev_norm^2 + tr_eps^2) - 1)",
+                    &POTENTIAL_VARIABLES,
+                    &constants,
+                )
+                .unwrap(),
+            }));
+            let symmetric = |values: &[f64]| {
+                let m = Tensor::<3>::from_column_slice(values);
+                (m + m.transpose()) * 0.5
+            };
+            let rate = symmetric(&entries[..9]) * 10f64.powf(log_scale);
+            let first = symmetric(&entries[3..12]);
+            let second = symmetric(&entries[..9]);
+            let a = first.dot(&Viscosity::<3>::tangent(&law, &rate, &second));
+            let b = second.dot(&Viscosity::<3>::tangent(&law, &rate, &first));
+            let size = first.norm() * second.norm();
+            proptest::prop_assert!((a - b).abs() <= 1e-12 * size.max(1e-300), "{} vs {}", a, b);
+            let quadratic = first.dot(&Viscosity::<3>::tangent(&law, &rate, &first));
+            proptest::prop_assert!(quadratic >= 2.0 * first.norm_squared() * (1.0 - 1e-12));
+        }
     }
 }
