@@ -211,7 +211,7 @@ fn assert_all_zones(zones: &Zones) {
 
 #[test]
 fn nonlinear_viscosity_cases_satisfy_their_strong_form_with_all_zones() {
-    for name in ["mild2d", "strong2d"] {
+    for name in ["mild2d", "strong2d", "carreau2d"] {
         let zones = check_strong_form::<2>(name);
         assert_all_zones(&zones);
         assert_eq!(zones.frictionless, 0, "{name}: {zones:?}");
