@@ -161,3 +161,33 @@ fn verify_rejects_an_unknown_order() {
     assert_eq!(output.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&output.stderr).contains("--order must be 1 or 2"));
 }
+
+/// A fresh scratch folder for one test of this file.
+fn scratch(name: &str) -> std::path::PathBuf {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("verify-cli-{name}"));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn verify_refuses_too_many_threads_before_any_work() {
+    let out = scratch("threads").join("out");
+    for threads in ["10000", "0"] {
+        let started = std::time::Instant::now();
+        let output = verify()
+            .args(["--threads", threads, "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{stderr}");
+        assert!(
+            stderr.contains(&format!("--threads {threads}")) && stderr.contains("1 ..= "),
+            "{stderr}"
+        );
+        assert!(started.elapsed() < std::time::Duration::from_secs(20));
+        assert!(output.stdout.is_empty());
+        assert!(!out.exists(), "--threads {threads}: output written");
+    }
+}

@@ -34,21 +34,16 @@ struct Cli {
     /// No progress lines.
     #[arg(long, short)]
     quiet: bool,
-    /// Worker threads (default: all cores).
+    /// Worker threads, 1 ..= 4 × the available cores (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
 }
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    if let Some(threads) = cli.threads {
-        if let Err(error) = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads.max(1))
-            .build_global()
-        {
-            eprintln!("simulate: --threads {threads}: {error}");
-            return ExitCode::FAILURE;
-        }
+    if let Err(error) = verify::cli::set_threads(cli.threads) {
+        eprintln!("simulate: {error}");
+        return ExitCode::FAILURE;
     }
     let interrupt = Arc::new(AtomicBool::new(false));
     let flag = interrupt.clone();

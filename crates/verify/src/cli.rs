@@ -60,9 +60,34 @@ pub struct Cli {
     /// Output folder (default: `reports/<case>/l<order>`).
     #[arg(long)]
     pub out: Option<PathBuf>,
-    /// Worker threads (default: all cores).
+    /// Worker threads, 1 ..= 4 × the available cores (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+}
+
+/// How many worker threads `--threads` may ask for: 4 × the available cores (at least 4).
+/// More threads than that only contend for the cores; ten thousand of them spin for minutes.
+pub fn max_threads() -> usize {
+    4 * std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
+/// Checks `--threads` (1 ..= [`max_threads`]) and sets up the global worker pool with that
+/// many threads; `None` keeps the default (all cores). Call before any parallel work.
+pub fn set_threads(threads: Option<usize>) -> Result<(), VerifyError> {
+    let Some(threads) = threads else {
+        return Ok(());
+    };
+    let limit = max_threads();
+    if !(1..=limit).contains(&threads) {
+        return Err(VerifyError::InvalidInput(format!(
+            "--threads {threads}: must lie in 1 ..= {limit} (4 × the {} available cores)",
+            limit / 4
+        )));
+    }
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build_global()
+        .map_err(|e| VerifyError::InvalidInput(format!("--threads {threads}: {e}")))
 }
 
 /// Loads the case named on the command line (or the default one for the dimension).
@@ -231,12 +256,7 @@ pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
             cli.order
         )));
     }
-    if let Some(threads) = cli.threads {
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(threads.max(1))
-            .build_global()
-            .map_err(|e| VerifyError::InvalidInput(format!("--threads {threads}: {e}")))?;
-    }
+    set_threads(cli.threads)?;
     let (file, origin) = load_case(&cli)?;
     let name = file.name.clone();
     let dim = file.dim;
