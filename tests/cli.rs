@@ -191,3 +191,82 @@ fn verify_refuses_too_many_threads_before_any_work() {
         assert!(!out.exists(), "--threads {threads}: output written");
     }
 }
+
+#[test]
+fn verify_refuses_an_unknown_study_before_solving() {
+    let out = scratch("studies").join("out");
+    let output = verify()
+        .args(["--studies", "h,foo", "--out"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("--studies") && stderr.contains("`foo`"),
+        "{stderr}"
+    );
+    // nothing computed (no study table) and nothing written
+    assert!(
+        output.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&output.stdout)
+    );
+    assert!(!out.exists());
+}
+
+#[test]
+fn verify_refuses_an_out_that_is_no_writable_folder_before_solving() {
+    let dir = scratch("out");
+    let file = dir.join("report.txt");
+    std::fs::write(&file, "mine\n").unwrap();
+    for (out, reason) in [
+        (file.clone(), "exists and is not a folder"),
+        (file.join("sub"), "is a file, not a folder"),
+    ] {
+        let output = verify()
+            .args(["--levels", "2", "--out"])
+            .arg(&out)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(2), "{stderr}");
+        assert!(
+            stderr.contains("--out")
+                && stderr.contains(&out.display().to_string())
+                && stderr.contains(reason),
+            "{stderr}"
+        );
+        assert!(
+            output.stdout.is_empty(),
+            "{}",
+            String::from_utf8_lossy(&output.stdout)
+        );
+    }
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine\n");
+
+    // a read-only folder (not testable as root, who may write anyway)
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let locked = dir.join("locked");
+        std::fs::create_dir_all(&locked).unwrap();
+        std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
+        let writable = std::fs::write(locked.join("probe"), "").is_ok();
+        if !writable {
+            let output = verify()
+                .args(["--levels", "2", "--out"])
+                .arg(&locked)
+                .output()
+                .unwrap();
+            let stderr = String::from_utf8_lossy(&output.stderr);
+            assert_eq!(output.status.code(), Some(2), "{stderr}");
+            assert!(
+                stderr.contains("--out") && stderr.contains("cannot write into the folder"),
+                "{stderr}"
+            );
+            assert!(output.stdout.is_empty());
+        }
+        std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+}

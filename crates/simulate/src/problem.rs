@@ -500,6 +500,19 @@ impl<const D: usize> ProblemSetup<D> {
             ));
         }
         let mesh = Self::mesh(&file, path, origin)?;
+        // the damage pictures of a 3D run are drawn on Γ3: refuse before the first step
+        if D == 3 && !(0..mesh.num_facets()).any(|f| mesh.facet_part(f) == BoundaryPart::Contact) {
+            let key = if file.mesh.gmsh.is_some() {
+                "mesh.gmsh.contact"
+            } else {
+                "mesh.box.sides"
+            };
+            return Err(problem_error(
+                origin,
+                key,
+                "a 3D problem needs a contact face Γ3 (its damage pictures are drawn on it), and no boundary facet is `contact`",
+            ));
+        }
         let settings = file.solver.settings(origin)?;
         let canonical = |value: Result<String, serde_json::Error>| {
             value.unwrap_or_else(|e| unreachable!("plain data serializes to JSON: {e}"))

@@ -11,6 +11,7 @@ use std::process::{Command, Output};
 use std::time::{Duration, Instant};
 
 const EXAMPLE_2D: &str = include_str!("../examples/rectangle_2d.toml");
+const EXAMPLE_3D: &str = include_str!("../examples/block_3d.toml");
 
 /// The 2D example on an 8 × 4 mesh with 8 steps, saved every 4, as `dir/small.toml`.
 fn small_problem(dir: &Path) -> PathBuf {
@@ -59,4 +60,24 @@ fn threads_out_of_range_are_refused_before_any_work() {
     }
     let output = simulate(&problem, &out, &["--threads", "2"]);
     assert!(output.status.success(), "{}", stderr(&output));
+}
+
+#[test]
+fn three_d_problem_without_contact_face_is_refused_before_the_first_step() {
+    let dir = scratch("hostile-no-contact");
+    let out = dir.join("out");
+    let text = EXAMPLE_3D.replace("z_min = \"contact\"", "z_min = \"traction\"");
+    assert_ne!(text, EXAMPLE_3D);
+    let problem = dir.join("no_contact.toml");
+    std::fs::write(&problem, text).unwrap();
+    let output = simulate(&problem, &out, &[]);
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(1), "{message}");
+    assert!(
+        message.contains("no_contact.toml")
+            && message.contains("mesh.box.sides")
+            && message.contains("contact face"),
+        "{message}"
+    );
+    assert!(!out.exists(), "output written before the refusal");
 }

@@ -90,6 +90,51 @@ pub fn set_threads(threads: Option<usize>) -> Result<(), VerifyError> {
         .map_err(|e| VerifyError::InvalidInput(format!("--threads {threads}: {e}")))
 }
 
+/// The names of `--studies`.
+pub const STUDY_NAMES: [&str; 3] = ["h", "k", "diagonal"];
+
+/// Checks `--studies` before anything is computed: every name is one of [`STUDY_NAMES`].
+pub fn check_studies(studies: &[String]) -> Result<(), VerifyError> {
+    match studies
+        .iter()
+        .find(|name| !STUDY_NAMES.contains(&name.as_str()))
+    {
+        Some(unknown) => Err(VerifyError::InvalidInput(format!(
+            "--studies: unknown study `{unknown}` (use h, k, diagonal, comma-separated)"
+        ))),
+        None => Ok(()),
+    }
+}
+
+/// Makes sure that the reports can be written into the folder `out` (`--out`) before anything
+/// is computed: it is a folder or can be created as one, and a file can be created in it.
+pub fn check_out(out: &std::path::Path) -> Result<(), VerifyError> {
+    let refuse =
+        |reason: String| VerifyError::InvalidInput(format!("--out `{}`: {reason}", out.display()));
+    // the nearest existing ancestor must be a folder
+    let mut existing = out;
+    while !existing.as_os_str().is_empty() && !existing.exists() {
+        existing = existing.parent().unwrap_or(std::path::Path::new(""));
+    }
+    if !existing.as_os_str().is_empty() && !existing.is_dir() {
+        return Err(refuse(if existing == out {
+            "exists and is not a folder".to_string()
+        } else {
+            format!("`{}` is a file, not a folder", existing.display())
+        }));
+    }
+    std::fs::create_dir_all(out).map_err(|e| refuse(format!("cannot create the folder: {e}")))?;
+    // a probe file, created exclusively and removed at once
+    let probe = out.join(format!(".verify-write-probe.{}", std::process::id()));
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .map_err(|e| refuse(format!("cannot write into the folder: {e}")))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// Loads the case named on the command line (or the default one for the dimension).
 pub fn load_case(cli: &Cli) -> Result<(CaseFile, String), VerifyError> {
     let name = match &cli.case {
@@ -257,9 +302,16 @@ pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
         )));
     }
     set_threads(cli.threads)?;
+    check_studies(&cli.studies)?;
     let (file, origin) = load_case(&cli)?;
     let name = file.name.clone();
     let dim = file.dim;
+    let out = cli.out.clone().unwrap_or_else(|| {
+        PathBuf::from("reports")
+            .join(&name)
+            .join(format!("l{}", cli.order))
+    });
+    check_out(&out)?;
     let started = std::time::Instant::now();
     let studies = match dim {
         2 => run_studies(&Case::<2>::new(file, &origin)?, &cli)?,
@@ -273,11 +325,6 @@ pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
     for study in &studies {
         print_study(study);
     }
-    let out = cli.out.clone().unwrap_or_else(|| {
-        PathBuf::from("reports")
-            .join(&name)
-            .join(format!("l{}", cli.order))
-    });
     let written = write_reports(&out, &name, &origin, dim, &studies)?;
     println!(
         "\ncase {name} ({origin}), d = {dim}, l = {}: {:.1} s",
