@@ -4,9 +4,12 @@
 //!
 //! - [`problem`]: the problem file and its translation into the solver's problem;
 //! - [`run`]: the time loop, the output files and `--resume`;
+//! - [`folder`]: which files of the output folder are ours, and what `--overwrite` and
+//!   `--resume` may remove;
 //! - [`history`]: the integral quantities of `history.csv` (forces, zones, slip, dissipation, damage);
 //! - [`pictures`]: SVG pictures of the damage field and of the contact history on Γ3.
 
+pub mod folder;
 pub mod history;
 pub mod pictures;
 pub mod problem;

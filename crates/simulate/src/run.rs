@@ -18,8 +18,11 @@
 //! `history.csv` to the resumed step and continues bitwise as the uninterrupted run would.
 //! An interruption through [`RunOptions::interrupt`] (Ctrl-C in `simulate`) ends the run
 //! after the step in progress and saves that step, so nothing computed is lost. `--resume`
-//! refuses a state whose problem changed since ([`ProblemSetup::fingerprint`]).
+//! refuses a state whose problem changed since ([`ProblemSetup::fingerprint`]). What a fresh
+//! run, `--overwrite` and `--resume` may do with the files already in the folder (only the
+//! names above are ours) is in [`crate::folder`].
 
+use crate::folder;
 use crate::history::{
     contact_integrals, damage_integrals, tangential_speed, truncate_history, viscous_power,
     ContactStep, HistoryRow, RunningSums, HISTORY_FILE, HISTORY_HEADER,
@@ -185,6 +188,15 @@ pub fn run<const D: usize>(
         .out
         .clone()
         .unwrap_or_else(|| setup.output_dir.clone());
+    let what = if options.out.is_some() {
+        "--out".to_string()
+    } else {
+        format!("output.dir of {}, or its default", setup.origin)
+    };
+    if !options.resume {
+        // before anything is computed or written (see crate::folder)
+        folder::check_fresh(&dir, &what, options.overwrite)?;
+    }
     let mut simulation = Simulation::new(setup.problem.clone())?;
     let space = simulation.space().clone();
     let contact = simulation.contact().clone();
@@ -289,14 +301,10 @@ pub fn run<const D: usize>(
             contact_line.indices.len(),
         )?;
     } else {
-        if state_path.exists() && !options.overwrite {
-            return Err(invalid(format!(
-                "{} already holds a run ({STATE_FILE}): continue it with --resume or start afresh with --overwrite",
-                dir.display()
-            )));
-        }
         std::fs::create_dir_all(&dir).map_err(io_error("creating directory", &dir))?;
-        remove_old_output(&dir)?;
+        if options.overwrite {
+            folder::remove_output(&dir)?;
+        }
         write_atomic(&history_path, format!("{HISTORY_HEADER}\n").as_bytes())?;
         write_atomic(
             &contact_history_path,
@@ -568,31 +576,6 @@ pub fn run<const D: usize>(
         seconds: clock.elapsed().as_secs_f64(),
         interrupted,
     })
-}
-
-/// Removes the files of an earlier run in `dir` (only the names this program writes).
-fn remove_old_output(dir: &Path) -> Result<(), VerifyError> {
-    let entries = std::fs::read_dir(dir).map_err(io_error("listing", dir))?;
-    for entry in entries {
-        let entry = entry.map_err(io_error("listing", dir))?;
-        let name = entry.file_name().to_string_lossy().into_owned();
-        let ours = (name.starts_with("solution_") || name.starts_with("contact_"))
-            && name.ends_with(".vtu")
-            || name.starts_with("damage_") && name.ends_with(".svg")
-            || [
-                "solution.pvd",
-                "contact.pvd",
-                STATE_FILE,
-                HISTORY_FILE,
-                CONTACT_HISTORY_FILE,
-                CONTACT_HISTORY_PICTURE,
-            ]
-            .contains(&name.as_str());
-        if ours {
-            std::fs::remove_file(entry.path()).map_err(io_error("removing", &entry.path()))?;
-        }
-    }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -6,6 +6,7 @@
 mod common;
 
 use common::scratch;
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 use std::time::{Duration, Instant};
@@ -39,6 +40,105 @@ fn simulate(problem: &Path, out: &Path, flags: &[&str]) -> Output {
 
 fn stderr(output: &Output) -> String {
     String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// Name → contents of every file in `dir`.
+fn contents(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|entry| {
+            let entry = entry.unwrap();
+            (
+                entry.file_name().into_string().unwrap(),
+                std::fs::read(entry.path()).unwrap(),
+            )
+        })
+        .collect()
+}
+
+/// The user's own files, whose names only look like those a run writes.
+const USER_FILES: [(&str, &str); 5] = [
+    ("solution_final.vtu", "mine: final solution\n"),
+    ("damage_map.svg", "mine: damage map\n"),
+    ("notes.tmp", "mine: notes\n"),
+    (
+        ".solution_final.vtu.12.0.tmp",
+        "mine: looks like a temporary\n",
+    ),
+    (".mine.tmp", "mine: hidden\n"),
+];
+
+fn write_user_files(dir: &Path) {
+    for (name, text) in USER_FILES {
+        std::fs::write(dir.join(name), text).unwrap();
+    }
+}
+
+fn assert_user_files_kept(dir: &Path) {
+    for (name, text) in USER_FILES {
+        assert_eq!(
+            std::fs::read_to_string(dir.join(name)).unwrap(),
+            text,
+            "{name} was changed"
+        );
+    }
+}
+
+#[test]
+fn fresh_run_refuses_a_folder_holding_files_of_the_names_it_writes() {
+    let dir = scratch("hostile-data-loss");
+    let problem = small_problem(&dir);
+    // the repro of issue 13
+    let out = dir.join("d");
+    std::fs::create_dir_all(&out).unwrap();
+    write_user_files(&out); // solution_final.vtu among them
+    std::fs::write(out.join("history.csv"), "x\n").unwrap();
+    let before = contents(&out);
+
+    let output = simulate(&problem, &out, &[]);
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(1), "{message}");
+    assert!(
+        message.contains(&out.display().to_string())
+            && message.contains("`history.csv`")
+            && message.contains("--overwrite")
+            && message.contains("--out"),
+        "{message}"
+    );
+    assert_eq!(contents(&out), before, "the folder was changed");
+
+    // a folder holding only a per-step file of an earlier run is refused too
+    let other = dir.join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    std::fs::write(other.join("damage_000004.svg"), "x\n").unwrap();
+    let output = simulate(&problem, &other, &[]);
+    assert_eq!(output.status.code(), Some(1));
+    assert!(
+        stderr(&output).contains("`damage_000004.svg`"),
+        "{}",
+        stderr(&output)
+    );
+    assert_eq!(
+        std::fs::read_to_string(other.join("damage_000004.svg")).unwrap(),
+        "x\n"
+    );
+
+    // files that only look like ours do not stop a fresh run, and are kept
+    let alike = dir.join("alike");
+    std::fs::create_dir_all(&alike).unwrap();
+    write_user_files(&alike);
+    let output = simulate(&problem, &alike, &[]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert_user_files_kept(&alike);
+    assert!(alike.join("solution_000008.vtu").exists());
+
+    // with --overwrite the run proceeds: our names are replaced, the user's others kept
+    let output = simulate(&problem, &out, &["--overwrite"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(std::fs::read_to_string(out.join("history.csv"))
+        .unwrap()
+        .starts_with("step,"));
+    assert_user_files_kept(&out);
 }
 
 #[test]
@@ -80,4 +180,20 @@ fn three_d_problem_without_contact_face_is_refused_before_the_first_step() {
         "{message}"
     );
     assert!(!out.exists(), "output written before the refusal");
+}
+
+#[test]
+fn out_that_is_a_file_is_refused_with_its_name() {
+    let dir = scratch("hostile-out-file");
+    let problem = small_problem(&dir);
+    let out = dir.join("results.txt");
+    std::fs::write(&out, "mine\n").unwrap();
+    let output = simulate(&problem, &out, &[]);
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(1), "{message}");
+    assert!(
+        message.contains(&out.display().to_string()) && message.contains("not a folder"),
+        "{message}"
+    );
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), "mine\n");
 }
