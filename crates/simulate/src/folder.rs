@@ -23,7 +23,8 @@
 //! - **`--overwrite`** removes the files of ours (those of earlier runs, whatever their step
 //!   numbers, and stale temporaries) after the problem has been built, and never touches a
 //!   file of another name;
-//! - **`--resume`** keeps every file.
+//! - **`--resume`** removes the stale temporaries (after the saved state has been checked
+//!   against the problem) and keeps everything else.
 //!
 //! Both flags assume that no other run writes into the folder at the same time.
 

@@ -281,6 +281,7 @@ pub fn run<const D: usize>(
                 expected_time.to_string(),
             ));
         }
+        folder::remove_stale_temporaries(&dir)?;
         saved_steps = saved.saved_steps.clone();
         sums = RunningSums {
             accumulated_slip: saved.accumulated_slip,

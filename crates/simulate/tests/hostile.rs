@@ -84,6 +84,14 @@ fn assert_user_files_kept(dir: &Path) {
     }
 }
 
+/// Stale temporaries as `kill -9` leaves them (both atomic writers' patterns).
+const STALE: [&str; 4] = [
+    ".solution_000008.vtu.999999.0.tmp",
+    ".solution.pvd.999999.1.tmp",
+    ".history.csv.tmp.999999.3",
+    ".state.json.tmp.999999.4",
+];
+
 #[test]
 fn fresh_run_refuses_a_folder_holding_files_of_the_names_it_writes() {
     let dir = scratch("hostile-data-loss");
@@ -139,6 +147,40 @@ fn fresh_run_refuses_a_folder_holding_files_of_the_names_it_writes() {
         .unwrap()
         .starts_with("step,"));
     assert_user_files_kept(&out);
+}
+
+#[test]
+fn overwrite_and_resume_remove_stale_temporaries_and_nothing_else() {
+    let dir = scratch("hostile-temporaries");
+    let problem = small_problem(&dir);
+    let out = dir.join("out");
+    let output = simulate(&problem, &out, &["--until-step", "4"]);
+    assert!(output.status.success(), "{}", stderr(&output));
+    write_user_files(&out);
+
+    for flags in [&["--resume", "--until-step", "6"][..], &["--overwrite"][..]] {
+        for name in STALE {
+            std::fs::write(out.join(name), "half a file").unwrap();
+        }
+        let output = simulate(&problem, &out, flags);
+        assert!(output.status.success(), "{flags:?}: {}", stderr(&output));
+        for name in STALE {
+            assert!(!out.join(name).exists(), "{flags:?}: {name} is still there");
+        }
+        assert_user_files_kept(&out);
+    }
+    // --overwrite started afresh: the steps of the resumed run are gone or rewritten
+    let history = std::fs::read_to_string(out.join("history.csv")).unwrap();
+    assert_eq!(history.lines().count(), 1 + 8);
+
+    // a stale temporary alone also stops a fresh run (it is ours; --overwrite removes it)
+    let fresh = dir.join("fresh");
+    std::fs::create_dir_all(&fresh).unwrap();
+    std::fs::write(fresh.join(STALE[0]), "half a file").unwrap();
+    let output = simulate(&problem, &fresh, &[]);
+    assert_eq!(output.status.code(), Some(1));
+    assert!(stderr(&output).contains(STALE[0]), "{}", stderr(&output));
+    assert!(fresh.join(STALE[0]).exists());
 }
 
 #[test]
