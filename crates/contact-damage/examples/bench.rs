@@ -473,6 +473,7 @@ fn measure<const D: usize>(cells: usize) -> contact_damage::Result<BTreeMap<Stri
             load: &load,
             normal_pressure: &pressure,
             friction_bound: &bound,
+            implicit_contact: None,
         };
         let settings = VelocitySettings::default();
         let zero = vec![0.0; load.len()];

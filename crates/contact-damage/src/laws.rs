@@ -837,6 +837,12 @@ where
 pub trait ContactLaw: Send + Sync {
     /// p_ν(r).
     fn normal_pressure(&self, penetration: f64) -> f64;
+    /// The normal compliance energy P(r) = ∫₀^r p_ν(s) ds (convex, as p_ν is nondecreasing):
+    /// the potential of the normal compliance when it is taken implicitly in the velocity step.
+    fn normal_energy(&self, penetration: f64) -> f64;
+    /// A derivative of p_ν at r (an element of Clarke's generalized derivative where p_ν has a
+    /// kink): the tangent of the implicit normal compliance in Newton's method.
+    fn normal_stiffness(&self, penetration: f64) -> f64;
     /// p_τ(r).
     fn friction_bound(&self, penetration: f64) -> f64;
     /// Checks the parameters against (3.7).
@@ -858,6 +864,18 @@ pub struct NormalComplianceCoulomb {
 impl ContactLaw for NormalComplianceCoulomb {
     fn normal_pressure(&self, penetration: f64) -> f64 {
         self.stiffness * penetration.max(0.0)
+    }
+    /// P(r) = c_ν r₊²/2.
+    fn normal_energy(&self, penetration: f64) -> f64 {
+        0.5 * self.stiffness * penetration.max(0.0).powi(2)
+    }
+    /// c_ν for r > 0, 0 for r ≤ 0.
+    fn normal_stiffness(&self, penetration: f64) -> f64 {
+        if penetration > 0.0 {
+            self.stiffness
+        } else {
+            0.0
+        }
     }
     fn friction_bound(&self, penetration: f64) -> f64 {
         let pressure = self.normal_pressure(penetration);

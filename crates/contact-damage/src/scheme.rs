@@ -14,7 +14,8 @@ use crate::obstacle::{BoxQpSettings, BoxQpStats};
 use crate::quadrature::QuadratureRule;
 use crate::space::{LagrangeSpace, Tabulation};
 use crate::velocity::{
-    VelocityData, VelocityOperator, VelocitySettings, VelocitySolution, VelocityStats,
+    ImplicitNormalCompliance, VelocityData, VelocityOperator, VelocitySettings, VelocitySolution,
+    VelocityStats,
 };
 use crate::{Error, Result};
 use nalgebra::SVector;
@@ -78,6 +79,20 @@ pub struct SchemeSettings {
     pub velocity: VelocitySettings,
     /// Damage step (5.2).
     pub damage: BoxQpSettings,
+    /// Where the normal compliance of the velocity step is evaluated.
+    pub contact: ContactTreatment,
+}
+
+/// Where the velocity step takes the normal compliance p_ν.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum ContactTreatment {
+    /// At u_{n−1}, as in the paper's scheme (5.1) (the default, verified against Theorem 5.2).
+    /// Stable only while k c_ν is small against the viscous stiffness.
+    #[default]
+    Explicit,
+    /// At u_n = u_{n−1} + k v_n (the friction bound stays at u_{n−1}): a strongly monotone step
+    /// solved exactly by generalized Newton, stable for any k (stiff contact).
+    Implicit,
 }
 
 /// Problem P_V^hk: mesh, degree l, model, data, T and N.
@@ -411,24 +426,17 @@ impl<const D: usize> Simulation<D> {
         (velocity_load, damage_source)
     }
 
-    /// Normal pressure and friction bound at the contact nodes from u_{n−1}.
-    fn contact_bounds(&self) -> (Vec<f64>, Vec<f64>) {
-        let law = &self.problem.model.contact;
-        self.contact
-            .nodes
-            .iter()
-            .enumerate()
-            .map(|(k, &node)| {
+    /// Penetrations u_{n−1,ν}(a) − g(a) at the contact nodes.
+    fn penetrations(&self) -> Vec<f64> {
+        (0..self.contact.len())
+            .map(|k| {
+                let node = self.contact.nodes[k];
                 let u = SVector::<f64, D>::from_column_slice(
                     &self.state.displacement[node * D..node * D + D],
                 );
-                let penetration = u.dot(&self.contact.normal(k)) - self.gap[k];
-                (
-                    law.normal_pressure(penetration),
-                    law.friction_bound(penetration),
-                )
+                u.dot(&self.contact.normal(k)) - self.gap[k]
             })
-            .unzip()
+            .collect()
     }
 
     /// One step of the scheme: (5.1) and (5.2) concurrently, then (5.4)–(5.5).
@@ -436,11 +444,26 @@ impl<const D: usize> Simulation<D> {
         let n = self.state.step + 1;
         let time = n as f64 * self.time_step();
         let (velocity_load, damage_source) = self.step_loads(time);
-        let (normal_pressure, friction_bound) = self.contact_bounds();
+        let penetrations = self.penetrations();
+        let law = &self.problem.model.contact;
+        let mut normal_pressure: Vec<f64> = penetrations
+            .iter()
+            .map(|&r| law.normal_pressure(r))
+            .collect();
+        let friction_bound: Vec<f64> = penetrations
+            .iter()
+            .map(|&r| law.friction_bound(r))
+            .collect();
+        let implicit = self.problem.settings.contact == ContactTreatment::Implicit;
         let data = VelocityData {
             load: &velocity_load,
             normal_pressure: &normal_pressure,
             friction_bound: &friction_bound,
+            implicit_contact: implicit.then(|| ImplicitNormalCompliance {
+                previous_penetration: penetrations.clone(),
+                time_step: self.time_step(),
+                law: law.clone(),
+            }),
         };
         let settings = self.problem.settings.velocity;
         let previous_velocity = &self.state.velocity;
@@ -454,6 +477,16 @@ impl<const D: usize> Simulation<D> {
         let velocity = velocity?;
         let damage = damage?;
         let k = self.time_step();
+        if implicit {
+            // the pressure the step used: p_ν(u_{n−1,ν} + k v_ν − g)
+            for (index, (slot, r)) in normal_pressure.iter_mut().zip(&penetrations).enumerate() {
+                let node = self.contact.nodes[index];
+                let v = SVector::<f64, D>::from_column_slice(
+                    &velocity.velocity[node * D..node * D + D],
+                );
+                *slot = law.normal_pressure(r + k * v.dot(&self.contact.normal(index)));
+            }
+        }
         for (u, v) in self.state.displacement.iter_mut().zip(&velocity.velocity) {
             *u += k * v;
         }

@@ -47,7 +47,7 @@
 use crate::assembly::viscous_element_matrix;
 use crate::contact::{ContactNodes, ContactStatus};
 use crate::friction::{CondensedFriction, FrictionSettings};
-use crate::laws::Viscosity;
+use crate::laws::{ContactLaw, Viscosity};
 use crate::linalg::{multiply, CholeskySolver, SparsityPattern};
 use crate::mesh::BoundaryPart;
 use crate::ordering::{fill_reducing_node_order, NodeGraph};
@@ -106,6 +106,32 @@ pub struct VelocityData<'a> {
     pub normal_pressure: &'a [f64],
     /// Friction bound s_a = p_τ(u_{n−1,ν}(a) − g(a)) per contact node.
     pub friction_bound: &'a [f64],
+    /// `Some` for the implicit variant of (5.1): the normal compliance is taken at
+    /// u_n = u_{n−1} + k v_n instead of u_{n−1} (`normal_pressure` is then not used).
+    pub implicit_contact: Option<ImplicitNormalCompliance>,
+}
+
+/// The implicit normal compliance of a velocity step: ⟨p_ν(u_{n−1,ν} + k v_ν − g), w_ν⟩ in place
+/// of the explicit p_ν(u_{n−1,ν} − g) of (5.1). It adds the convex term
+/// Σ_a ω_a P(r_a + k v_ν(a))/k (P' = p_ν) to J, so the step stays a strongly convex minimization
+/// and is solved by the nonlinear path (generalized Newton with the tangent ω_a k p_ν′). The
+/// friction bound stays explicit, s_a = p_τ(r_a): the step is then an exact minimization, with
+/// no fixed point on the bound.
+#[derive(Clone)]
+pub struct ImplicitNormalCompliance {
+    /// r_a = u_{n−1,ν}(a) − g(a) per contact node.
+    pub previous_penetration: Vec<f64>,
+    /// The time step k > 0.
+    pub time_step: f64,
+    /// The law p_ν with its energy and derivative.
+    pub law: Arc<dyn ContactLaw>,
+}
+
+impl ImplicitNormalCompliance {
+    /// The penetration at the end of the step, r_a + k v_ν(a), at contact node `index`.
+    pub fn penetration(&self, index: usize, normal_velocity: f64) -> f64 {
+        self.previous_penetration[index] + self.time_step * normal_velocity
+    }
 }
 
 /// Result of a velocity step.
@@ -140,6 +166,10 @@ pub struct VelocityOperator<const D: usize> {
     schur: Mat<f64>,
     /// The velocity at which H was last assembled (nonlinear 𝒜).
     linearized_at: Option<Vec<f64>>,
+    /// The implicit normal compliance of the current step, if any.
+    implicit: Option<ImplicitNormalCompliance>,
+    /// True while `matrix` is the plain viscous operator (false after a Newton tangent).
+    matrix_is_plain: bool,
 }
 
 impl<const D: usize> VelocityOperator<D> {
@@ -222,6 +252,8 @@ impl<const D: usize> VelocityOperator<D> {
             tangential,
             schur: Mat::zeros(0, 0),
             linearized_at: None,
+            implicit: None,
+            matrix_is_plain: true,
         };
         operator.matrix = operator.assemble(None)?;
         // Elimination order of the nodes (the D unknowns of a node together, see
@@ -297,7 +329,23 @@ impl<const D: usize> VelocityOperator<D> {
                 self.rotate_element_matrix(cell, out);
             });
         clamped_values.fill(1.0);
-        self.pattern.matrix(&values)
+        let mut matrix = self.pattern.matrix(&values)?;
+        if let (Some(implicit), Some(velocity)) = (&self.implicit, velocity_system) {
+            // the tangent of the implicit normal compliance: ω_a k p_ν′(r_a + k v_ν(a))
+            for (k, &node) in self.contact.nodes.iter().enumerate() {
+                let dof = node * D;
+                if self.clamped[node] {
+                    continue;
+                }
+                let stiffness = self.contact.weights[k]
+                    * implicit.time_step
+                    * implicit
+                        .law
+                        .normal_stiffness(implicit.penetration(k, velocity[dof]));
+                add_to_diagonal(&mut matrix, dof, stiffness);
+            }
+        }
+        Ok(matrix)
     }
 
     /// K ← Qᵀ K Q for the frames of the contact nodes of the cell.
@@ -474,7 +522,21 @@ impl<const D: usize> VelocityOperator<D> {
                 }
             }
         }
-        (energy, self.to_system(&force))
+        let mut force = self.to_system(&force);
+        if let Some(implicit) = &self.implicit {
+            // Σ_a ω_a P(r_a + k v_ν(a))/k and its gradient ω_a p_ν(r_a + k v_ν(a)) e_ν
+            for (k, &node) in self.contact.nodes.iter().enumerate() {
+                if self.clamped[node] {
+                    energy.push(0.0);
+                    continue;
+                }
+                let penetration = implicit.penetration(k, velocity_system[node * D]);
+                let weight = self.contact.weights[k];
+                energy.push(weight * implicit.law.normal_energy(penetration) / implicit.time_step);
+                force[node * D] += weight * implicit.law.normal_pressure(penetration);
+            }
+        }
+        (energy, force)
     }
 
     fn friction_weights(&self, friction_bound: &[f64]) -> Vec<f64> {
@@ -518,7 +580,7 @@ impl<const D: usize> VelocityOperator<D> {
         velocity_system: &[f64],
         multipliers: &[f64],
     ) -> f64 {
-        let force = if self.law.is_linear() {
+        let force = if self.law.is_linear() && self.implicit.is_none() && self.matrix_is_plain {
             multiply(&self.matrix, velocity_system)
         } else {
             self.energy_and_force(velocity_system).1
@@ -611,13 +673,48 @@ impl<const D: usize> VelocityOperator<D> {
                 )));
             }
         }
-        // F in the system frame, with the normal compliance load −ω_a p_ν on the normal unknown.
+        if let Some(implicit) = &data.implicit_contact {
+            if implicit.previous_penetration.len() != k_count {
+                return Err(Error::InvalidInput(format!(
+                    "implicit normal compliance: {} penetrations for {k_count} contact nodes",
+                    implicit.previous_penetration.len()
+                )));
+            }
+            if !(implicit.time_step.is_finite() && implicit.time_step > 0.0) {
+                return Err(Error::parameter(
+                    "time_step",
+                    implicit.time_step,
+                    "the implicit normal compliance needs a finite time step k > 0",
+                ));
+            }
+            if let Some(k) = implicit
+                .previous_penetration
+                .iter()
+                .position(|r| !r.is_finite())
+            {
+                return Err(Error::NonFinite(format!(
+                    "penetration u_ν − g = {} at contact node {} ({:?})",
+                    implicit.previous_penetration[k],
+                    self.contact.nodes[k],
+                    self.space.node(self.contact.nodes[k])
+                )));
+            }
+        }
+        // F in the system frame, with the explicit normal compliance load −ω_a p_ν on the
+        // normal unknown (the implicit one is part of N(v) instead).
         let mut load = self.to_system(data.load);
-        for (k, &node) in self.contact.nodes.iter().enumerate() {
-            load[node * D] -= self.contact.weights[k] * data.normal_pressure[k];
+        if data.implicit_contact.is_none() {
+            for (k, &node) in self.contact.nodes.iter().enumerate() {
+                load[node * D] -= self.contact.weights[k] * data.normal_pressure[k];
+            }
         }
         let weights = self.friction_weights(data.friction_bound);
-        let (velocity, multipliers, stats) = if self.law.is_linear() {
+        self.implicit.clone_from(&data.implicit_contact);
+        if self.implicit.is_some() {
+            // the tangent depends on the step's penetrations, not only on v
+            self.linearized_at = None;
+        }
+        let (velocity, multipliers, stats) = if self.law.is_linear() && self.implicit.is_none() {
             self.solve_linear(&load, &weights, start, settings)?
         } else {
             self.solve_nonlinear(&load, &weights, start, settings)?
@@ -628,7 +725,13 @@ impl<const D: usize> VelocityOperator<D> {
             .iter()
             .enumerate()
             .map(|(k, &node)| {
-                if data.normal_pressure[k] <= 0.0 {
+                let pressure = match &self.implicit {
+                    Some(implicit) => implicit
+                        .law
+                        .normal_pressure(implicit.penetration(k, velocity[node * D])),
+                    None => data.normal_pressure[k],
+                };
+                if pressure <= 0.0 {
                     ContactStatus::Separated
                 } else if weights[k] > 0.0 && (1..D).all(|i| velocity[node * D + i] == 0.0) {
                     ContactStatus::Stick
@@ -659,6 +762,13 @@ impl<const D: usize> VelocityOperator<D> {
         let mut multipliers = vec![0.0; self.contact.len() * (D - 1)];
         let mut velocity = self.to_system(start);
         let mut history: Vec<f64> = Vec::new();
+        if !self.matrix_is_plain {
+            // a Newton tangent (implicit contact) replaced the operator of the run
+            self.matrix = self.assemble(None)?;
+            self.matrix_is_plain = true;
+            self.factorize()?;
+            stats.factorizations += 1;
+        }
         loop {
             stats.newton_iterations += 1;
             if !self.solver.is_factorized() {
@@ -763,6 +873,7 @@ impl<const D: usize> VelocityOperator<D> {
             stats.newton_iterations += 1;
             if self.linearized_at.as_deref() != Some(velocity.as_slice()) {
                 self.matrix = self.assemble(Some(&velocity))?;
+                self.matrix_is_plain = false;
                 self.factorize()?;
                 stats.factorizations += 1;
                 self.linearized_at = Some(velocity.clone());
@@ -985,6 +1096,20 @@ struct Iterate {
 /// Smallest tolerance a refinement pass asks of the condensed friction problem (relative to
 /// its right-hand side; its rounding level is about ε κ(S)).
 const MIN_FRICTION_TOLERANCE: f64 = 1e-15;
+
+/// matrix[(index, index)] += value (the entry is in the pattern: a node couples with itself).
+fn add_to_diagonal(matrix: &mut SparseColMat<usize, f64>, index: usize, value: f64) {
+    let symbolic = matrix.symbolic();
+    let start = symbolic.col_ptr()[index];
+    let end = symbolic.col_ptr()[index + 1];
+    let position = symbolic.row_idx()[start..end]
+        .iter()
+        .position(|&row| row == index)
+        .map(|p| start + p);
+    if let Some(position) = position {
+        matrix.val_mut()[position] += value;
+    }
+}
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()

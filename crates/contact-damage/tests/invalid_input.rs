@@ -122,6 +122,7 @@ fn velocity_step_rejects_bad_data() {
         load: &short,
         normal_pressure: &pressure,
         friction_bound: &pressure,
+        implicit_contact: None,
     };
     let message = operator
         .solve(&data, &vec![0.0; n], &settings)
@@ -135,6 +136,7 @@ fn velocity_step_rejects_bad_data() {
         load: &load,
         normal_pressure: &pressure,
         friction_bound: &pressure,
+        implicit_contact: None,
     };
     let message = operator
         .solve(&data, &vec![0.0; n], &settings)
@@ -152,6 +154,7 @@ fn velocity_step_rejects_bad_data() {
         load: &load,
         normal_pressure: &pressure,
         friction_bound: &bound,
+        implicit_contact: None,
     };
     let message = operator
         .solve(&data, &vec![0.0; n], &settings)

@@ -73,6 +73,7 @@ fn velocity_kkt<const D: usize>(
         load: &load,
         normal_pressure: &pressure,
         friction_bound: &bound,
+        implicit_contact: None,
     };
     let start: Vec<f64> = (0..n).map(|_| rng.symmetric()).collect();
     let solution = operator
@@ -244,6 +245,7 @@ fn velocity_step_with_nonlinear_viscosity_satisfies_kkt() {
         load: &load,
         normal_pressure: &pressure,
         friction_bound: &bound,
+        implicit_contact: None,
     };
     let solution = operator
         .solve(&data, &vec![0.0; n], &VelocitySettings::default())
