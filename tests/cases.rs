@@ -210,8 +210,8 @@ fn assert_all_zones(zones: &Zones) {
 }
 
 #[test]
-fn nonlinear_viscosity_cases_satisfy_their_strong_form_with_all_zones() {
-    for name in ["mild2d", "strong2d", "carreau2d"] {
+fn cases_of_the_whole_model_satisfy_their_strong_form_with_all_zones() {
+    for name in ["mild2d", "strong2d", "carreau2d", "implicit2d"] {
         let zones = check_strong_form::<2>(name);
         assert_all_zones(&zones);
         assert_eq!(zones.frictionless, 0, "{name}: {zones:?}");
@@ -312,4 +312,16 @@ fn case_reader_rejects_multiplier_outside_subdifferential() {
 fn case_reader_rejects_invalid_law_parameter() {
     let message = error_of("stiffness = 10.0", "stiffness = -10.0");
     assert!(message.contains("contact.stiffness"), "{message}");
+}
+
+#[test]
+fn case_reader_rejects_an_unknown_contact_treatment_naming_the_line() {
+    let message = error_of("[laws]", "[scheme]\ncontact = \"sometimes\"\n\n[laws]");
+    assert!(
+        message.contains("my_case.toml")
+            && message.contains("line 28")
+            && message.contains("sometimes")
+            && message.contains("implicit"),
+        "{message}"
+    );
 }

@@ -24,6 +24,9 @@
 //! every = 1                # save every N-th step (and the last one)
 //! dir = "results/NAME"     # default results/<name>, name = file stem unless `name` is given
 //! pictures = [2.5, 5.0]    # times of the damage pictures (SVG), default [T/2, T]
+//! [scheme]
+//! contact = "explicit"     # p_ν at u_{n−1} as in (5.1); "implicit": at u_{n−1} + k v_n (stiff
+//!                          # contact at any step; the friction bound stays at u_{n−1})
 //! [solver]                 # all optional; the defaults are shown
 //! velocity_tolerance = 1e-10      # relative KKT residual of the velocity step (5.1)
 //! max_newton = 50                 # (proximal) Newton iterations of (5.1), nonlinear 𝒜
@@ -50,7 +53,7 @@ use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use verify::case::{parse_sides, parse_toml, LawsFile};
+use verify::case::{parse_sides, parse_toml, LawsFile, SchemeFile};
 use verify::expr::Expr;
 use verify::VerifyError;
 
@@ -95,6 +98,9 @@ pub struct ProblemFile {
     /// Tolerances and iteration limits of the solvers.
     #[serde(default)]
     pub solver: SolverFile,
+    /// Variants of the scheme (`contact = "explicit"` or `"implicit"`).
+    #[serde(default)]
+    pub scheme: SchemeFile,
 }
 
 /// `[mesh]`: exactly one of `box` and `gmsh`.
@@ -513,7 +519,8 @@ impl<const D: usize> ProblemSetup<D> {
                 "a 3D problem needs a contact face Γ3 (its damage pictures are drawn on it), and no boundary facet is `contact`",
             ));
         }
-        let settings = file.solver.settings(origin)?;
+        let mut settings = file.solver.settings(origin)?;
+        settings.contact = file.scheme.contact_treatment();
         let canonical = |value: Result<String, serde_json::Error>| {
             value.unwrap_or_else(|e| unreachable!("plain data serializes to JSON: {e}"))
         };
@@ -532,6 +539,15 @@ impl<const D: usize> ProblemSetup<D> {
             ),
             ("mesh".to_string(), mesh_fingerprint(&mesh)),
         ]);
+        let mut fingerprint = fingerprint;
+        if file.scheme != SchemeFile::default() {
+            // a resumed run continues the same scheme (absent for the paper's default, so
+            // that the states of earlier versions still resume)
+            fingerprint.insert(
+                "scheme".to_string(),
+                canonical(serde_json::to_string(&file.scheme)),
+            );
+        }
         let constants = &file.constants;
         let laws = file.laws.build::<D>(origin, constants)?;
 

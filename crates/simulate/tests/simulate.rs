@@ -771,3 +771,40 @@ fn solver_settings_are_read_from_the_problem_file() {
         defaults.damage.max_iterations
     );
 }
+
+#[test]
+fn implicit_contact_scheme_is_selected_by_the_problem_file() {
+    let dir = scratch("simulate-implicit-contact");
+    let text = EXAMPLE_2D
+        .replace("cells = [40, 20]", "cells = [8, 4]")
+        .replace("steps = 250", "steps = 4")
+        .replace("final_time = 5.0", "final_time = 0.4")
+        .replace("every = 10", "every = 1");
+    let implicit = text.replacen("[laws]", "[scheme]\ncontact = \"implicit\"\n\n[laws]", 1);
+    assert!(implicit.contains("contact = \"implicit\""));
+    let mut states = Vec::new();
+    for (name, text) in [("explicit", &text), ("implicit", &implicit)] {
+        let problem = dir.join(format!("{name}.toml"));
+        std::fs::write(&problem, text).unwrap();
+        let out = dir.join(name);
+        let outcome = simulate::run_file(&problem, &quiet(&out)).unwrap();
+        assert_eq!(outcome.last_step, 4, "{name}");
+        states.push(read_saved_state(&out).unwrap());
+    }
+    // the two schemes differ in the contact pressure, so in the displacement
+    assert_ne!(states[0].displacement, states[1].displacement);
+    // an unknown treatment is refused with the file and the line
+    let problem = dir.join("bogus.toml");
+    std::fs::write(
+        &problem,
+        implicit.replace("contact = \"implicit\"", "contact = \"sometimes\""),
+    )
+    .unwrap();
+    let message = simulate::run_file(&problem, &quiet(&dir.join("bogus")))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        message.contains("bogus.toml") && message.contains("sometimes"),
+        "{message}"
+    );
+}

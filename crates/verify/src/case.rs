@@ -13,7 +13,7 @@ use contact_damage::laws::{
     SaturatingViscosity, Tensor, TruncatedFremond, Viscosity,
 };
 use contact_damage::mesh::{BoundaryPart, Mesh};
-use contact_damage::scheme::{Data, Model, Problem, SchemeSettings};
+use contact_damage::scheme::{ContactTreatment, Data, Model, Problem, SchemeSettings};
 use nalgebra::SVector;
 use num_dual::{Dual2SVec64, Dual64};
 use serde::{Deserialize, Serialize};
@@ -55,6 +55,41 @@ pub struct CaseFile {
     /// Studies per polynomial degree: keys `order1`, `order2`.
     #[serde(default)]
     pub studies: BTreeMap<String, StudySet>,
+    /// `[scheme]`: variants of the scheme (default: the paper's (5.1)–(5.5)).
+    #[serde(default)]
+    pub scheme: SchemeFile,
+}
+
+/// `[scheme]` of case and problem files.
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(deny_unknown_fields)]
+pub struct SchemeFile {
+    /// `contact = "explicit"` (default: p_ν at u_{n−1}, the paper's (5.1)) or `"implicit"`
+    /// (p_ν at u_n = u_{n−1} + k v_n: stiff contact at any step; the friction bound stays at
+    /// u_{n−1}).
+    #[serde(default)]
+    pub contact: ContactTreatmentFile,
+}
+
+/// The values of `scheme.contact`.
+#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "snake_case")]
+pub enum ContactTreatmentFile {
+    /// p_ν at u_{n−1} (5.1).
+    #[default]
+    Explicit,
+    /// p_ν at u_{n−1} + k v_n.
+    Implicit,
+}
+
+impl SchemeFile {
+    /// The solver's setting.
+    pub fn contact_treatment(&self) -> ContactTreatment {
+        match self.contact {
+            ContactTreatmentFile::Explicit => ContactTreatment::Explicit,
+            ContactTreatmentFile::Implicit => ContactTreatment::Implicit,
+        }
+    }
 }
 
 /// `[domain]`: a box with a boundary part for each side.
@@ -809,7 +844,10 @@ impl<const D: usize> Case<D> {
             },
             final_time: self.file.final_time,
             steps,
-            settings: SchemeSettings::default(),
+            settings: SchemeSettings {
+                contact: self.file.scheme.contact_treatment(),
+                ..SchemeSettings::default()
+            },
         })
     }
 }
