@@ -5,6 +5,8 @@
 
 mod common;
 
+use common::{regime_contact_data, Lcg, Regime, REGIMES};
+
 use contact_damage::contact::{ContactNodes, ContactStatus};
 use contact_damage::damage::{assemble_damage_matrix, DamageOperator};
 use contact_damage::laws::LinearViscosity;
@@ -15,28 +17,6 @@ use contact_damage::space::LagrangeSpace;
 use contact_damage::velocity::{VelocityData, VelocityOperator, VelocitySettings};
 use proptest::prelude::*;
 use std::sync::Arc;
-
-#[derive(Debug, Clone, Copy)]
-enum Regime {
-    NoContact,
-    AllStick,
-    AllSlip,
-    Mixed,
-}
-
-struct Lcg(u64);
-impl Lcg {
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 11) as f64) / ((1u64 << 53) as f64)
-    }
-    fn symmetric(&mut self) -> f64 {
-        2.0 * self.next() - 1.0
-    }
-}
 
 /// Solves one random velocity step and returns the independently recomputed KKT residual and
 /// the contact statuses.
@@ -56,19 +36,7 @@ fn velocity_kkt<const D: usize>(
     let mut operator = VelocityOperator::new(space.clone(), law, contact.clone()).unwrap();
     let n = space.num_nodes() * D;
     let load: Vec<f64> = (0..n).map(|_| 0.05 * rng.symmetric()).collect();
-    let count = contact.len();
-    let (pressure, bound): (Vec<f64>, Vec<f64>) = (0..count)
-        .map(|k| match regime {
-            Regime::NoContact => (0.0, 0.0),
-            Regime::AllStick => (1.0, 10.0 + rng.next()),
-            Regime::AllSlip => (1.0, 1e-4 * (1.0 + rng.next())),
-            Regime::Mixed => match k % 3 {
-                0 => (0.0, 0.0),
-                1 => (1.0, 10.0 * (1.0 + rng.next())),
-                _ => (1.0, 1e-4 * (1.0 + rng.next())),
-            },
-        })
-        .unzip();
+    let (pressure, bound) = regime_contact_data(regime, contact.len(), &mut rng);
     let data = VelocityData {
         load: &load,
         normal_pressure: &pressure,
@@ -138,13 +106,6 @@ fn check_regime(statuses: &[ContactStatus], regime: Regime) {
         ),
     }
 }
-
-const REGIMES: [Regime; 4] = [
-    Regime::NoContact,
-    Regime::AllStick,
-    Regime::AllSlip,
-    Regime::Mixed,
-];
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]

@@ -12,6 +12,8 @@
 
 mod common;
 
+use common::{regime_contact_data, Lcg, Regime, REGIMES};
+
 use contact_damage::assembly::{field_strain, physical_gradients};
 use contact_damage::contact::{ContactNodes, ContactStatus};
 use contact_damage::laws::{LinearViscosity, SaturatingViscosity, Viscosity};
@@ -27,35 +29,6 @@ use std::sync::Arc;
 const MAX_ITERATIONS: usize = 12;
 /// The KKT residual every nonlinear step must reach (head room under the 1e-10 certificate).
 const KKT_TARGET: f64 = 1e-12;
-
-#[derive(Debug, Clone, Copy)]
-enum Regime {
-    NoContact,
-    AllStick,
-    AllSlip,
-    Mixed,
-}
-
-const REGIMES: [Regime; 4] = [
-    Regime::NoContact,
-    Regime::AllStick,
-    Regime::AllSlip,
-    Regime::Mixed,
-];
-
-struct Lcg(u64);
-impl Lcg {
-    fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 11) as f64) / ((1u64 << 53) as f64)
-    }
-    fn symmetric(&mut self) -> f64 {
-        2.0 * self.next() - 1.0
-    }
-}
 
 /// A mild law (η₁ = η/2, ε₀ = 0.2) and a strongly nonlinear one (η₁ = 5η, ε₀ = 0.01, far below
 /// the strain rates of the random data).
@@ -128,18 +101,7 @@ fn solve_random<const D: usize>(
         VelocityOperator::new(space.clone(), Arc::new(law), contact.clone()).unwrap();
     let n = space.num_nodes() * D;
     let load: Vec<f64> = (0..n).map(|_| 0.05 * rng.symmetric()).collect();
-    let (pressure, bound): (Vec<f64>, Vec<f64>) = (0..contact.len())
-        .map(|k| match regime {
-            Regime::NoContact => (0.0, 0.0),
-            Regime::AllStick => (1.0, 10.0 + rng.next()),
-            Regime::AllSlip => (1.0, 1e-4 * (1.0 + rng.next())),
-            Regime::Mixed => match k % 3 {
-                0 => (0.0, 0.0),
-                1 => (1.0, 10.0 * (1.0 + rng.next())),
-                _ => (1.0, 1e-4 * (1.0 + rng.next())),
-            },
-        })
-        .unzip();
+    let (pressure, bound) = regime_contact_data(regime, contact.len(), &mut rng);
     let data = VelocityData {
         load: &load,
         normal_pressure: &pressure,

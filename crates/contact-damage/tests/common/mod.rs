@@ -121,3 +121,59 @@ pub fn distorted<const D: usize>(mesh: &Mesh<D>, spacing: f64, amount: f64) -> M
     let parts: Vec<BoundaryPart> = (0..mesh.num_facets()).map(|f| mesh.facet_part(f)).collect();
     Mesh::new(vertices, cells, facets, parts).unwrap()
 }
+
+/// A seeded linear congruential generator: deterministic random data for the solver tests.
+pub struct Lcg(pub u64);
+
+impl Lcg {
+    /// Uniform in [0, 1).
+    pub fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((self.0 >> 11) as f64) / ((1u64 << 53) as f64)
+    }
+    /// Uniform in [−1, 1).
+    pub fn symmetric(&mut self) -> f64 {
+        2.0 * self.next() - 1.0
+    }
+}
+
+/// The contact regimes of the random velocity-step data.
+#[derive(Debug, Clone, Copy)]
+pub enum Regime {
+    /// Every contact node separated (p_ν = 0).
+    NoContact,
+    /// Every node in contact with a friction bound far above the tangential forces.
+    AllStick,
+    /// Every node in contact with a tiny friction bound.
+    AllSlip,
+    /// Separated, sticking and slipping nodes in turn.
+    Mixed,
+}
+
+/// All regimes, indexable by a proptest strategy.
+pub const REGIMES: [Regime; 4] = [
+    Regime::NoContact,
+    Regime::AllStick,
+    Regime::AllSlip,
+    Regime::Mixed,
+];
+
+/// Normal pressure and friction bound per contact node that realize `regime` for the random
+/// loads of size 0.05 of the solver tests.
+pub fn regime_contact_data(regime: Regime, count: usize, rng: &mut Lcg) -> (Vec<f64>, Vec<f64>) {
+    (0..count)
+        .map(|k| match regime {
+            Regime::NoContact => (0.0, 0.0),
+            Regime::AllStick => (1.0, 10.0 + rng.next()),
+            Regime::AllSlip => (1.0, 1e-4 * (1.0 + rng.next())),
+            Regime::Mixed => match k % 3 {
+                0 => (0.0, 0.0),
+                1 => (1.0, 10.0 * (1.0 + rng.next())),
+                _ => (1.0, 1e-4 * (1.0 + rng.next())),
+            },
+        })
+        .unzip()
+}
