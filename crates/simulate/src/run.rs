@@ -171,6 +171,68 @@ fn io_error(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) ->
     move |e| VerifyError::io(action, path, e)
 }
 
+/// Checks the values of a saved state as strictly as an input file: fields of the right
+/// lengths, finite, β_n ∈ [0, 1] (the scheme's 𝒦^h), nonnegative running sums and slips, and
+/// saved steps strictly increasing. The error names the file, the field and the first bad entry.
+fn check_saved_values<const D: usize>(saved: &SavedState, path: &Path) -> Result<(), VerifyError> {
+    let bad = |field: &str, detail: String| {
+        VerifyError::InvalidInput(format!("{}: `{field}` {detail}", path.display()))
+    };
+    for (field, values, length) in [
+        ("displacement", &saved.displacement, saved.nodes * D),
+        ("velocity", &saved.velocity, saved.nodes * D),
+        ("damage", &saved.damage, saved.nodes),
+    ] {
+        if values.len() != length {
+            return Err(bad(
+                field,
+                format!("has {} values, expected {length}", values.len()),
+            ));
+        }
+        if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+            return Err(bad(field, format!("[{i}] = {} is not finite", values[i])));
+        }
+    }
+    if let Some(i) = saved.damage.iter().position(|b| !(0.0..=1.0).contains(b)) {
+        return Err(bad(
+            "damage",
+            format!("[{i}] = {} lies outside [0, 1]", saved.damage[i]),
+        ));
+    }
+    if let Some(i) = saved
+        .accumulated_slip
+        .iter()
+        .position(|s| !(s.is_finite() && *s >= 0.0))
+    {
+        return Err(bad(
+            "accumulated_slip",
+            format!(
+                "[{i}] = {} must be finite and ≥ 0",
+                saved.accumulated_slip[i]
+            ),
+        ));
+    }
+    for (field, value) in [
+        ("friction_dissipation", saved.friction_dissipation),
+        ("viscous_dissipation", saved.viscous_dissipation),
+    ] {
+        if !(value.is_finite() && value >= 0.0) {
+            return Err(bad(field, format!("= {value} must be finite and ≥ 0")));
+        }
+    }
+    if let Some(i) = saved.saved_steps.windows(2).position(|w| w[0] >= w[1]) {
+        return Err(bad(
+            "saved_steps",
+            format!(
+                "must increase strictly: {} then {}",
+                saved.saved_steps[i],
+                saved.saved_steps[i + 1]
+            ),
+        ));
+    }
+    Ok(())
+}
+
 /// Reads `state.json` of a folder.
 pub fn read_saved_state(dir: &Path) -> Result<SavedState, VerifyError> {
     let path = dir.join(STATE_FILE);
@@ -257,10 +319,11 @@ pub fn run<const D: usize>(
                 saved.step
             )));
         }
-        for (key, value) in &setup.fingerprint {
-            if saved.fingerprint.get(key) != Some(value) {
+        let keys = setup.fingerprint.keys().chain(saved.fingerprint.keys());
+        for key in keys {
+            if saved.fingerprint.get(key) != setup.fingerprint.get(key) {
                 return Err(invalid(format!(
-                    "{} does not belong to {}: `{key}` changed since the saved run (resume needs the same constants, laws, loads and mesh; start afresh with --overwrite)",
+                    "{} does not belong to {}: `{key}` changed since the saved run (resume needs the same constants, laws, loads, mesh and scheme; start afresh with --overwrite)",
                     state_path.display(),
                     setup.origin
                 )));
@@ -281,6 +344,7 @@ pub fn run<const D: usize>(
                 expected_time.to_string(),
             ));
         }
+        check_saved_values::<D>(&saved, &state_path)?;
         folder::remove_stale_temporaries(&dir)?;
         saved_steps = saved.saved_steps.clone();
         sums = RunningSums {

@@ -808,3 +808,67 @@ fn implicit_contact_scheme_is_selected_by_the_problem_file() {
         "{message}"
     );
 }
+
+#[test]
+fn resume_validates_the_saved_values_and_the_scheme() {
+    let dir = scratch("simulate-resume-values");
+    let problem = tiny_example(&dir);
+    let out = dir.join("out");
+    let until = |step| RunOptions {
+        until_step: Some(step),
+        ..quiet(&out)
+    };
+    let resume = RunOptions {
+        resume: true,
+        ..quiet(&out)
+    };
+    simulate::run_file(&problem, &until(4)).unwrap();
+    let state_path = out.join("state.json");
+    let original = std::fs::read_to_string(&state_path).unwrap();
+    let mut state: serde_json::Value = serde_json::from_str(&original).unwrap();
+    // a damage value outside [0, 1] is refused with the file, the field and the entry
+    state["damage"][3] = serde_json::json!(5.0);
+    std::fs::write(&state_path, state.to_string()).unwrap();
+    let error = simulate::run_file(&problem, &resume)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("state.json") && error.contains("`damage` [3] = 5"),
+        "{error}"
+    );
+    // so is a velocity of the wrong length
+    let mut state: serde_json::Value = serde_json::from_str(&original).unwrap();
+    state["velocity"].as_array_mut().unwrap().pop();
+    std::fs::write(&state_path, state.to_string()).unwrap();
+    let error = simulate::run_file(&problem, &resume)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("`velocity` has"), "{error}");
+    // the untouched state resumes; the implicit scheme does not resume an explicit run, nor
+    // the explicit scheme an implicit one
+    std::fs::write(&state_path, &original).unwrap();
+    let text = std::fs::read_to_string(&problem).unwrap();
+    let implicit = dir.join("implicit.toml");
+    std::fs::write(
+        &implicit,
+        text.replacen("[laws]", "[scheme]\ncontact = \"implicit\"\n\n[laws]", 1),
+    )
+    .unwrap();
+    let error = simulate::run_file(&implicit, &resume)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("`scheme` changed"), "{error}");
+    simulate::run_file(
+        &implicit,
+        &RunOptions {
+            overwrite: true,
+            ..until(4)
+        },
+    )
+    .unwrap();
+    let error = simulate::run_file(&problem, &resume)
+        .unwrap_err()
+        .to_string();
+    assert!(error.contains("`scheme` changed"), "{error}");
+    simulate::run_file(&implicit, &resume).unwrap();
+}
