@@ -325,3 +325,31 @@ fn case_reader_rejects_an_unknown_contact_treatment_naming_the_line() {
         "{message}"
     );
 }
+
+#[test]
+fn case_reader_rejects_studies_whose_rates_would_be_undefined_naming_the_key() {
+    // identical mesh levels: h does not change
+    let message = error_of(
+        "h = { cells = [4, 8, 16, 32]",
+        "h = { cells = [4, 4, 16, 32]",
+    );
+    assert!(message.contains("studies.order1.h.cells"), "{message}");
+    // a k-study with a repeated step count
+    let message = error_of(
+        "k = { cells = 16, steps = [2, 4, 8, 16]",
+        "k = { cells = 16, steps = [2, 4, 4, 16]",
+    );
+    assert!(message.contains("studies.order1.k.steps"), "{message}");
+    // a reference that does not contain the times of the levels
+    let message = error_of("reference_steps = 128 }", "reference_steps = 100 }");
+    assert!(
+        message.contains("studies.order1.k.reference_steps"),
+        "{message}"
+    );
+    // lists of different lengths
+    let message = error_of(
+        "diagonal = { cells = [4, 8, 16, 32], steps = [2, 4, 8, 16] }",
+        "diagonal = { cells = [4, 8, 16, 32], steps = [2, 4, 8] }",
+    );
+    assert!(message.contains("studies.order1.diagonal"), "{message}");
+}

@@ -523,6 +523,87 @@ impl<const D: usize> DamageSource<D> for ExpressionDamageSource {
     }
 }
 
+/// Checks the study definitions before anything runs: keys `order1`/`order2`; level studies with
+/// `cells` and `steps` of one length ≥ 2, cells strictly increasing (else h does not change and
+/// the rates are undefined) and steps ≥ 1, nondecreasing; k-studies with ≥ 2 step counts ≥ 1,
+/// strictly increasing, and a reference that is a multiple of each and finer than all.
+fn check_studies(origin: &str, studies: &BTreeMap<String, StudySet>) -> Result<(), VerifyError> {
+    for (order, set) in studies {
+        if order != "order1" && order != "order2" {
+            return Err(case_error(
+                origin,
+                &format!("studies.{order}"),
+                "unknown study set (use order1 or order2)",
+            ));
+        }
+        for (name, study) in [("h", &set.h), ("diagonal", &set.diagonal)] {
+            let Some(study) = study else { continue };
+            let key = format!("studies.{order}.{name}");
+            if study.cells.len() != study.steps.len() || study.cells.len() < 2 {
+                return Err(case_error(
+                    origin,
+                    &key,
+                    format!(
+                        "`cells` and `steps` need the same length ≥ 2, got {} and {}",
+                        study.cells.len(),
+                        study.steps.len()
+                    ),
+                ));
+            }
+            if study.cells.contains(&0) || study.cells.windows(2).any(|w| w[0] >= w[1]) {
+                return Err(case_error(
+                    origin,
+                    &format!("{key}.cells"),
+                    format!(
+                        "must be ≥ 1 and increase strictly (each level a finer mesh), got {:?}",
+                        study.cells
+                    ),
+                ));
+            }
+            if study.steps.contains(&0) || study.steps.windows(2).any(|w| w[0] > w[1]) {
+                return Err(case_error(
+                    origin,
+                    &format!("{key}.steps"),
+                    format!("must be ≥ 1 and never decrease, got {:?}", study.steps),
+                ));
+            }
+        }
+        if let Some(study) = &set.k {
+            let key = format!("studies.{order}.k");
+            if study.cells == 0 {
+                return Err(case_error(origin, &format!("{key}.cells"), "must be ≥ 1"));
+            }
+            if study.steps.len() < 2
+                || study.steps.contains(&0)
+                || study.steps.windows(2).any(|w| w[0] >= w[1])
+            {
+                return Err(case_error(
+                    origin,
+                    &format!("{key}.steps"),
+                    format!(
+                        "need ≥ 2 step counts ≥ 1, increasing strictly, got {:?}",
+                        study.steps
+                    ),
+                ));
+            }
+            let finest = study.steps.iter().copied().max().unwrap_or(0);
+            if study.reference_steps <= finest
+                || study.steps.iter().any(|&s| study.reference_steps % s != 0)
+            {
+                return Err(case_error(
+                    origin,
+                    &format!("{key}.reference_steps"),
+                    format!(
+                        "must exceed every step count and be a multiple of each (the reference is compared at their times), got {} for {:?}",
+                        study.reference_steps, study.steps
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 fn case_error(origin: &str, key: &str, message: impl Into<String>) -> VerifyError {
     VerifyError::Case {
         file: origin.to_string(),
@@ -602,6 +683,7 @@ impl<const D: usize> Case<D> {
             ));
         }
         positive(origin, "final_time", file.final_time)?;
+        check_studies(origin, &file.studies)?;
         if file.domain.lower.len() != D || file.domain.upper.len() != D {
             return Err(case_error(
                 origin,
