@@ -162,6 +162,22 @@ fn verify_rejects_an_unknown_order() {
     assert!(String::from_utf8_lossy(&output.stderr).contains("--order must be 1 or 2"));
 }
 
+/// Runs `verify` with `args` (then `--out out`) and checks that it was refused before any work:
+/// exit status 2, no study table on stdout, no output folder. Returns stderr.
+fn refused(args: &[&str], out: &std::path::Path) -> String {
+    let existed = out.exists();
+    let output = verify().args(args).arg("--out").arg(out).output().unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr).into_owned();
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        output.stdout.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&output.stdout)
+    );
+    assert_eq!(out.exists(), existed, "{args:?}: output folder created");
+    stderr
+}
+
 /// A fresh scratch folder for one test of this file.
 fn scratch(name: &str) -> std::path::PathBuf {
     let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("verify-cli-{name}"));
@@ -174,45 +190,22 @@ fn scratch(name: &str) -> std::path::PathBuf {
 fn verify_refuses_too_many_threads_before_any_work() {
     let out = scratch("threads").join("out");
     for threads in ["10000", "0"] {
-        let started = std::time::Instant::now();
-        let output = verify()
-            .args(["--threads", threads, "--out"])
-            .arg(&out)
-            .output()
-            .unwrap();
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        assert_eq!(output.status.code(), Some(2), "{stderr}");
+        let stderr = refused(&["--threads", threads], &out);
         assert!(
             stderr.contains(&format!("--threads {threads}")) && stderr.contains("1 ..= "),
             "{stderr}"
         );
-        assert!(started.elapsed() < std::time::Duration::from_secs(20));
-        assert!(output.stdout.is_empty());
-        assert!(!out.exists(), "--threads {threads}: output written");
     }
 }
 
 #[test]
 fn verify_refuses_an_unknown_study_before_solving() {
     let out = scratch("studies").join("out");
-    let output = verify()
-        .args(["--studies", "h,foo", "--out"])
-        .arg(&out)
-        .output()
-        .unwrap();
-    let stderr = String::from_utf8_lossy(&output.stderr);
-    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    let stderr = refused(&["--studies", "h,foo"], &out);
     assert!(
         stderr.contains("--studies") && stderr.contains("`foo`"),
         "{stderr}"
     );
-    // nothing computed (no study table) and nothing written
-    assert!(
-        output.stdout.is_empty(),
-        "{}",
-        String::from_utf8_lossy(&output.stdout)
-    );
-    assert!(!out.exists());
 }
 
 #[test]
@@ -224,23 +217,12 @@ fn verify_refuses_an_out_that_is_no_writable_folder_before_solving() {
         (file.clone(), "exists and is not a folder"),
         (file.join("sub"), "is a file, not a folder"),
     ] {
-        let output = verify()
-            .args(["--levels", "2", "--out"])
-            .arg(&out)
-            .output()
-            .unwrap();
-        let stderr = String::from_utf8_lossy(&output.stderr);
-        assert_eq!(output.status.code(), Some(2), "{stderr}");
+        let stderr = refused(&["--levels", "2"], &out);
         assert!(
             stderr.contains("--out")
                 && stderr.contains(&out.display().to_string())
                 && stderr.contains(reason),
             "{stderr}"
-        );
-        assert!(
-            output.stdout.is_empty(),
-            "{}",
-            String::from_utf8_lossy(&output.stdout)
         );
     }
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine\n");
@@ -254,18 +236,11 @@ fn verify_refuses_an_out_that_is_no_writable_folder_before_solving() {
         std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
         let writable = std::fs::write(locked.join("probe"), "").is_ok();
         if !writable {
-            let output = verify()
-                .args(["--levels", "2", "--out"])
-                .arg(&locked)
-                .output()
-                .unwrap();
-            let stderr = String::from_utf8_lossy(&output.stderr);
-            assert_eq!(output.status.code(), Some(2), "{stderr}");
+            let stderr = refused(&["--levels", "2"], &locked);
             assert!(
                 stderr.contains("--out") && stderr.contains("cannot write into the folder"),
                 "{stderr}"
             );
-            assert!(output.stdout.is_empty());
         }
         std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
     }

@@ -446,7 +446,7 @@ impl<const D: usize> Simulation<D> {
         let (velocity_load, damage_source) = self.step_loads(time);
         let penetrations = self.penetrations();
         let law = &self.problem.model.contact;
-        let mut normal_pressure: Vec<f64> = penetrations
+        let normal_pressure: Vec<f64> = penetrations
             .iter()
             .map(|&r| law.normal_pressure(r))
             .collect();
@@ -460,7 +460,7 @@ impl<const D: usize> Simulation<D> {
             normal_pressure: &normal_pressure,
             friction_bound: &friction_bound,
             implicit_contact: implicit.then(|| ImplicitNormalCompliance {
-                previous_penetration: penetrations.clone(),
+                previous_penetration: penetrations,
                 time_step: self.time_step(),
                 law: law.clone(),
             }),
@@ -477,16 +477,6 @@ impl<const D: usize> Simulation<D> {
         let velocity = velocity?;
         let damage = damage?;
         let k = self.time_step();
-        if implicit {
-            // the pressure the step used: p_ν(u_{n−1,ν} + k v_ν − g)
-            for (index, (slot, r)) in normal_pressure.iter_mut().zip(&penetrations).enumerate() {
-                let node = self.contact.nodes[index];
-                let v = SVector::<f64, D>::from_column_slice(
-                    &velocity.velocity[node * D..node * D + D],
-                );
-                *slot = law.normal_pressure(r + k * v.dot(&self.contact.normal(index)));
-            }
-        }
         for (u, v) in self.state.displacement.iter_mut().zip(&velocity.velocity) {
             *u += k * v;
         }
@@ -494,6 +484,16 @@ impl<const D: usize> Simulation<D> {
         self.state.damage.clone_from(&damage.damage);
         self.state.step = n;
         self.state.time = time;
+        // the pressure the step used: p_ν at u_{n−1} (5.1), or at u_n = u_{n−1} + k v_n
+        let normal_pressure = if implicit {
+            let law = &self.problem.model.contact;
+            self.penetrations()
+                .iter()
+                .map(|&r| law.normal_pressure(r))
+                .collect()
+        } else {
+            normal_pressure
+        };
         Ok((velocity, damage, normal_pressure, friction_bound))
     }
 

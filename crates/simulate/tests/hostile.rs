@@ -9,7 +9,6 @@ use common::scratch;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
-use std::time::{Duration, Instant};
 
 const EXAMPLE_2D: &str = include_str!("../examples/rectangle_2d.toml");
 const EXAMPLE_3D: &str = include_str!("../examples/block_3d.toml");
@@ -189,7 +188,6 @@ fn threads_out_of_range_are_refused_before_any_work() {
     let problem = small_problem(&dir);
     let out = dir.join("out");
     for threads in ["10000", "0"] {
-        let started = Instant::now();
         let output = simulate(&problem, &out, &["--threads", threads]);
         let message = stderr(&output);
         assert_eq!(output.status.code(), Some(1), "{message}");
@@ -197,7 +195,6 @@ fn threads_out_of_range_are_refused_before_any_work() {
             message.contains(&format!("--threads {threads}")) && message.contains("1 ..= "),
             "{message}"
         );
-        assert!(started.elapsed() < Duration::from_secs(20));
         assert!(!out.exists(), "--threads {threads}: output written");
     }
     let output = simulate(&problem, &out, &["--threads", "2"]);
