@@ -9,7 +9,7 @@
 //! a box-constrained quadratic program.
 //!
 //! Modules, one concept each: [`mesh`], [`quadrature`], [`element`], [`space`], [`assembly`],
-//! [`linalg`], [`laws`], [`contact`], [`friction`], [`velocity`], [`obstacle`], [`damage`],
+//! [`linalg`], [`laws`], [`contact`], [`friction`], [`velocity`], [`obstacle`], [`damage`], [`stability`],
 //! [`gmsh`] (mesh files), [`vtk`] (ParaView output),
 //! [`scheme`].
 //!
@@ -68,6 +68,7 @@ pub mod ordering;
 pub mod quadrature;
 pub mod scheme;
 pub mod space;
+pub mod stability;
 pub mod velocity;
 pub mod vtk;
 

@@ -13,6 +13,7 @@ use crate::mesh::{BoundaryPart, Mesh};
 use crate::obstacle::{BoxQpSettings, BoxQpStats};
 use crate::quadrature::QuadratureRule;
 use crate::space::{LagrangeSpace, Tabulation};
+use crate::stability::{step_limit, StepLimit};
 use crate::velocity::{
     ImplicitNormalCompliance, VelocityData, VelocityOperator, VelocitySettings, VelocitySolution,
     VelocityStats,
@@ -81,6 +82,19 @@ pub struct SchemeSettings {
     pub damage: BoxQpSettings,
     /// Where the normal compliance of the velocity step is evaluated.
     pub contact: ContactTreatment,
+    /// Whether the damage evolves by (5.2) or stays at β_0.
+    pub damage_evolution: DamageEvolution,
+}
+
+/// Whether the damage step (5.2) is solved.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum DamageEvolution {
+    /// β_n from the damage step (5.2) (the paper's model, the default).
+    #[default]
+    Parabolic,
+    /// β_n = β_0 for every n and no damage step: a pure contact problem (with β_0 = 1, the
+    /// viscoelastic body of §2 without damage). The damage laws are not used.
+    Frozen,
 }
 
 /// Where the velocity step takes the normal compliance p_ν.
@@ -187,7 +201,8 @@ pub struct Simulation<const D: usize> {
     space: Arc<LagrangeSpace<D>>,
     contact: Arc<ContactNodes<D>>,
     velocity: VelocityOperator<D>,
-    damage: DamageOperator<D>,
+    /// None when the damage is frozen ([`DamageEvolution::Frozen`]).
+    damage: Option<DamageOperator<D>>,
     load_tabulation: Tabulation<D>,
     gap: Vec<f64>,
     state: State,
@@ -200,7 +215,9 @@ impl<const D: usize> Simulation<D> {
         let model = &problem.model;
         model.viscosity.validate()?;
         model.elasticity.validate()?;
-        model.damage_source.validate()?;
+        if problem.settings.damage_evolution == DamageEvolution::Parabolic {
+            model.damage_source.validate()?;
+        }
         model.contact.validate()?;
         if !(problem.final_time.is_finite() && problem.final_time > 0.0) {
             return Err(Error::parameter(
@@ -221,12 +238,15 @@ impl<const D: usize> Simulation<D> {
         let velocity =
             VelocityOperator::new(space.clone(), model.viscosity.clone(), contact.clone())?;
         let time_step = problem.final_time / problem.steps as f64;
-        let damage = DamageOperator::new(
-            space.clone(),
-            model.damage_diffusion,
-            time_step,
-            problem.settings.damage,
-        )?;
+        let damage = match problem.settings.damage_evolution {
+            DamageEvolution::Parabolic => Some(DamageOperator::new(
+                space.clone(),
+                model.damage_diffusion,
+                time_step,
+                problem.settings.damage,
+            )?),
+            DamageEvolution::Frozen => None,
+        };
         let load_tabulation = Tabulation::cell_rule(
             space.element(),
             &QuadratureRule::<D>::simplex(2 * space.degree() + 2),
@@ -426,6 +446,19 @@ impl<const D: usize> Simulation<D> {
         (velocity_load, damage_source)
     }
 
+    /// The step limit of the explicit terms of (5.1) at the current state ([`crate::stability`]):
+    /// with the paper's explicit normal compliance the elastic and contact stiffness, with the
+    /// implicit one the elastic stiffness only. A run with k above it is unstable.
+    pub fn step_limit(&self) -> Result<StepLimit> {
+        step_limit(
+            &self.velocity,
+            self.problem.model.elasticity.as_ref(),
+            self.problem.model.contact.as_ref(),
+            &self.penetrations(),
+            self.problem.settings.contact == ContactTreatment::Explicit,
+        )
+    }
+
     /// Penetrations u_{n−1,ν}(a) − g(a) at the contact nodes.
     fn penetrations(&self) -> Vec<f64> {
         (0..self.contact.len())
@@ -472,7 +505,13 @@ impl<const D: usize> Simulation<D> {
         let damage_op = &mut self.damage;
         let (velocity, damage) = rayon::join(
             || velocity_op.solve(&data, previous_velocity, &settings),
-            || damage_op.solve(&damage_source, previous_damage),
+            || match damage_op {
+                Some(operator) => operator.solve(&damage_source, previous_damage),
+                None => Ok(DamageSolution {
+                    damage: previous_damage.clone(),
+                    stats: BoxQpStats::default(),
+                }),
+            },
         );
         let velocity = velocity?;
         let damage = damage?;

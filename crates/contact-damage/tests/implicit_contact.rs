@@ -135,3 +135,50 @@ fn implicit_stiff_contact_with_friction_is_exact_and_settles() {
     let state = simulation.state();
     assert!(largest(&state.velocity) <= 1e-6 * largest(&state.displacement));
 }
+
+/// `DamageEvolution::Frozen` is the pure contact problem: β stays β_0 = 1 even under a damage
+/// source that would lower it, no damage step is solved, and the displacement is that of the
+/// damage model with no source (where (5.2) keeps β = 1 by itself).
+#[test]
+fn frozen_damage_is_the_model_without_damage() {
+    use contact_damage::scheme::DamageEvolution;
+    let run = |frozen: bool| {
+        let mut data = common::quiet_data::<2>();
+        data.traction = Some(Arc::new(|_x: &[f64; 2], t: f64, normal: &[f64; 2]| {
+            if normal[1] > 0.5 {
+                [0.05 * t, -0.1]
+            } else {
+                [0.0, 0.0]
+            }
+        }));
+        let mut problem = common::problem(common::square(6), 2, data, 2.0, 20);
+        problem.model.damage_source = if frozen {
+            // a source that would damage the body at once
+            Arc::new(DamageSourceFn(|_: &Tensor<2>, _: f64| -5.0))
+        } else {
+            Arc::new(DamageSourceFn(|_: &Tensor<2>, _: f64| 0.0))
+        };
+        if frozen {
+            problem.settings.damage_evolution = DamageEvolution::Frozen;
+        }
+        let mut simulation = Simulation::new(problem).unwrap();
+        let mut damage_iterations = 0;
+        simulation
+            .run(|report| {
+                damage_iterations += report.damage_stats.iterations;
+                Ok(())
+            })
+            .unwrap();
+        (simulation.state().clone(), damage_iterations)
+    };
+    let (frozen, frozen_iterations) = run(true);
+    let (undamaged, _) = run(false);
+    assert_eq!(frozen_iterations, 0, "a damage step was solved");
+    assert!(frozen.damage.iter().all(|&beta| beta == 1.0));
+    assert!(undamaged
+        .damage
+        .iter()
+        .all(|&beta| (beta - 1.0).abs() <= 1e-14));
+    assert_same_displacement(&undamaged.displacement, &frozen.displacement);
+    assert!(largest(&frozen.displacement) > 0.0);
+}

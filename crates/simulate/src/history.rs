@@ -2,9 +2,17 @@
 //!
 //! With the nodal contact rule of the scheme (ω_a = ∫_Γ3 φ_a, the rule of the friction term
 //! j(u_{n−1}, v) in (5.1)), the Γ3 integrals are sums over the contact nodes a:
-//! - `normal_force` = Σ_a ω_a p_ν(a), with p_ν(a) = p_ν(u_{n−1,ν}(a) − g(a)) as used in step n;
-//! - `contact_zone` = Σ_{a not separated} ω_a and `slip_zone` = Σ_{a slipping} ω_a: measures
-//!   (lengths in 2D, areas in 3D) of the parts of Γ3 in contact and slipping;
+//! - `normal_force` = Σ_a ω_a p_ν(a), with p_ν(a) = p_ν(u_{n−1,ν}(a) − g(a)) as used in step n
+//!   (p_ν(u_{n,ν}(a) − g(a)) with the implicit normal compliance);
+//! - `tangential_force` = |Σ_a ω_a p_τ(a) R_a(0, λ_a)|, the magnitude of the resultant friction
+//!   force, and `force_x`, `force_y`, `force_z` the components of the resultant force of the
+//!   foundation on the body, F = Σ_a ω_a (−p_ν(a) ν_a − p_τ(a) R_a(0, λ_a)) (`force_z` = 0 in
+//!   2D; see [`crate::zone`]);
+//! - `contact_zone`: the measure (length in 2D, area in 3D) of the part of Γ3 where the
+//!   interpolated penetration r = u_ν − g (at the displacement whose p_ν the step used) is
+//!   positive, clipped at its zero crossing, and `zone_min`, `zone_max` its extent along the
+//!   axis of `contact_history.csv` (empty when there is no contact; see [`crate::zone`]);
+//! - `slip_zone` = Σ_{a slipping} ω_a: the measure of the slipping part of Γ3, by nodes;
 //! - `slip_rate` = Σ_a ω_a |v_{n,τ}(a)| = ∫_Γ3 |v_τ|;
 //! - `max_accumulated_slip` = max_a Σ_{m ≤ n} k |v_{m,τ}(a)|: the longest distance slipped
 //!   by a point of Γ3 so far;
@@ -33,7 +41,7 @@ use verify::VerifyError;
 /// Name of the time history.
 pub const HISTORY_FILE: &str = "history.csv";
 /// Header of the time history (see the module documentation for the columns).
-pub const HISTORY_HEADER: &str = "step,t,normal_force,contact_zone,slip_zone,stick,slip,separated,slip_rate,max_accumulated_slip,friction_power,friction_dissipation,viscous_power,viscous_dissipation,mean_damage,area_damage_below_half,velocity_kkt,damage_kkt,newton_iterations,friction_iterations,damage_iterations";
+pub const HISTORY_HEADER: &str = "step,t,normal_force,tangential_force,force_x,force_y,force_z,contact_zone,zone_min,zone_max,slip_zone,stick,slip,separated,slip_rate,max_accumulated_slip,friction_power,friction_dissipation,viscous_power,viscous_dissipation,mean_damage,area_damage_below_half,velocity_kkt,damage_kkt,newton_iterations,friction_iterations,damage_iterations";
 
 /// The running sums of a run after step n.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -65,8 +73,14 @@ pub struct HistoryRow {
     pub time: f64,
     /// Σ_a ω_a p_ν(a): total normal contact force.
     pub normal_force: f64,
-    /// Σ ω_a over the contact nodes in contact (stick or slip).
+    /// |Σ_a ω_a p_τ(a) R_a(0, λ_a)|: magnitude of the resultant friction force.
+    pub tangential_force: f64,
+    /// The resultant force of the foundation on the body (x, y, z; z = 0 in 2D).
+    pub force: [f64; 3],
+    /// Measure of {r > 0} on Γ3 from the zero crossing of the interpolated penetration.
     pub contact_zone: f64,
+    /// Extent of the contact zone along the axis of `contact_history.csv` (NaN when empty).
+    pub zone_bounds: [f64; 2],
     /// Σ ω_a over the slipping contact nodes.
     pub slip_zone: f64,
     /// Contact nodes sticking.
@@ -107,11 +121,17 @@ impl HistoryRow {
     /// The row as a line of `history.csv` (floats in their shortest round-trip form).
     pub fn csv_line(&self) -> String {
         format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:e},{:e},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:e},{:e},{},{},{}\n",
             self.step,
             self.time,
             self.normal_force,
+            self.tangential_force,
+            self.force[0],
+            self.force[1],
+            self.force[2],
             self.contact_zone,
+            optional(self.zone_bounds[0]),
+            optional(self.zone_bounds[1]),
             self.slip_zone,
             self.stick,
             self.slip,
@@ -130,6 +150,15 @@ impl HistoryRow {
             self.friction_iterations,
             self.damage_iterations
         )
+    }
+}
+
+/// A value, or an empty field for NaN (no such value, e.g. the bounds of an empty zone).
+fn optional(value: f64) -> String {
+    if value.is_nan() {
+        String::new()
+    } else {
+        value.to_string()
     }
 }
 
@@ -163,8 +192,6 @@ pub fn tangential_speed<const D: usize>(contact: &ContactNodes<D>, velocity: &[f
 pub struct ContactIntegrals {
     /// Σ ω_a p_ν(a).
     pub normal_force: f64,
-    /// Σ ω_a over nodes in contact.
-    pub contact_zone: f64,
     /// Σ ω_a over slipping nodes.
     pub slip_zone: f64,
     /// Node counts (separated, stick, slip).
@@ -186,7 +213,6 @@ pub fn contact_integrals<const D: usize>(
 ) -> ContactIntegrals {
     let mut integrals = ContactIntegrals {
         normal_force: 0.0,
-        contact_zone: 0.0,
         slip_zone: 0.0,
         counts: [0; 3],
         slip_rate: 0.0,
@@ -196,13 +222,9 @@ pub fn contact_integrals<const D: usize>(
         integrals.normal_force += weight * step.normal_pressure[a];
         match step.status[a] {
             ContactStatus::Separated => integrals.counts[0] += 1,
-            ContactStatus::Stick => {
-                integrals.counts[1] += 1;
-                integrals.contact_zone += weight;
-            }
+            ContactStatus::Stick => integrals.counts[1] += 1,
             ContactStatus::Slip => {
                 integrals.counts[2] += 1;
-                integrals.contact_zone += weight;
                 integrals.slip_zone += weight;
             }
         }
@@ -445,7 +467,6 @@ pub(crate) mod tests {
         let total: f64 = contact.weights.iter().sum();
         let integrals = contact_integrals(&contact, &step, &speed, 0.1, &mut sums);
         assert!((integrals.normal_force - 2.0 * total).abs() < 1e-14);
-        assert!((integrals.contact_zone - (total - contact.weights[0])).abs() < 1e-14);
         assert!(
             (integrals.slip_zone - (total - contact.weights[0] - contact.weights[1])).abs() < 1e-14
         );
@@ -470,7 +491,10 @@ pub(crate) mod tests {
                 step: n,
                 time: 0.1 * n as f64,
                 normal_force: 0.0,
+                tangential_force: 0.0,
+                force: [0.0; 3],
                 contact_zone: 0.0,
+                zone_bounds: [f64::NAN; 2],
                 slip_zone: 0.0,
                 stick: 0,
                 slip: 0,

@@ -7,13 +7,15 @@
 //! - [`folder`]: which files of the output folder are ours, and what `--overwrite` and
 //!   `--resume` may remove;
 //! - [`history`]: the integral quantities of `history.csv` (forces, zones, slip, dissipation, damage);
-//! - [`pictures`]: SVG pictures of the damage field and of the contact history on Γ3.
+//! - [`pictures`]: SVG pictures of the damage field and of the contact history on Γ3;
+//! - [`zone`]: the contact zone from the zero crossing of the penetration, and the contact force.
 
 pub mod folder;
 pub mod history;
 pub mod pictures;
 pub mod problem;
 pub mod run;
+pub mod zone;
 
 use std::path::Path;
 use verify::VerifyError;

@@ -4,11 +4,11 @@
 //!   of its nodal values), or on the contact face Γ3 (3D: its facets projected onto the plane
 //!   of the face), with a colour bar 0..1;
 //! - `contact_history.svg`: along Γ3, the contact status (separated, stick, slip) of every
-//!   step as a space–time map, and below it the normal pressure p_ν and the accumulated slip
+//!   saved step (`output.every`) as a space–time map, and below it the normal pressure p_ν and the accumulated slip
 //!   Σ_{m ≤ n} k |v_{m,τ}| at a few times.
 //!
 //! The contact history is drawn from `contact_history.csv` (one row per contact node of the
-//! line drawn and step, appended during the run and truncated on `--resume` like
+//! line drawn and saved step, appended during the run and truncated on `--resume` like
 //! `history.csv`), so that a resumed run draws the whole run. The coordinate `s` along Γ3 is
 //! the coordinate axis along which the contact nodes spread most; in 3D only the contact nodes
 //! on the line of the face nearest its middle (in the other in-plane axis) are recorded — on a
@@ -251,12 +251,13 @@ pub fn read_contact_history(path: &Path) -> Result<Vec<ContactRecord>, VerifyErr
         .collect()
 }
 
-/// Keeps the header and the rows of steps 1, …, `step` of `contact_history.csv` — there must
-/// be exactly `rows_per_step` complete rows of each, in order — and drops the rest (steps done
-/// after the last saved step, possibly a row cut short by a crash); rewritten atomically.
+/// Keeps the header and the rows of the `recorded_steps` (the saved steps up to the one resumed
+/// from) of `contact_history.csv` — there must be exactly `rows_per_step` complete rows of
+/// each, in order — and drops the rest (steps done after the last saved step, possibly a row
+/// cut short by a crash); rewritten atomically.
 pub fn truncate_contact_history(
     path: &Path,
-    step: usize,
+    recorded_steps: &[usize],
     rows_per_step: usize,
 ) -> Result<(), VerifyError> {
     let text = std::fs::read_to_string(path)
@@ -269,8 +270,8 @@ pub fn truncate_contact_history(
         )));
     }
     let mut kept = format!("{CONTACT_HISTORY_HEADER}\n");
-    for row in 0..step * rows_per_step {
-        let expected = row / rows_per_step + 1;
+    for row in 0..recorded_steps.len() * rows_per_step {
+        let expected = recorded_steps[row / rows_per_step];
         let line = lines.next().unwrap_or("");
         if parse_record(line).map(|r| r.step) != Some(expected) {
             return Err(VerifyError::InvalidInput(format!(
@@ -680,8 +681,9 @@ fn draw_legend(
     Ok(())
 }
 
-/// Steps at which the pressure is drawn: the picture steps and the step of the largest total
-/// pressure on the line, among the steps of `records`.
+/// Steps at which the pressure is drawn: for each picture step the nearest step of `records`
+/// (the earlier one on a tie; the contact history holds every `output.every`-th step), and the
+/// step of the largest total pressure on the line.
 pub fn pressure_steps(records: &[ContactRecord], picture_steps: &[usize]) -> Vec<usize> {
     let mut totals: Vec<(usize, f64)> = Vec::new();
     for record in records {
@@ -692,8 +694,12 @@ pub fn pressure_steps(records: &[ContactRecord], picture_steps: &[usize]) -> Vec
     }
     let mut chosen: Vec<usize> = picture_steps
         .iter()
-        .copied()
-        .filter(|s| totals.iter().any(|(step, _)| step == s))
+        .filter_map(|&wanted| {
+            totals
+                .iter()
+                .map(|&(step, _)| step)
+                .min_by_key(|&step| (step.abs_diff(wanted), step))
+        })
         .collect();
     if let Some(&(step, _)) = totals.iter().max_by(|a, b| a.1.total_cmp(&b.1)) {
         chosen.push(step);
@@ -735,7 +741,7 @@ mod tests {
             rows(3)
         );
         std::fs::write(&path, text).unwrap();
-        truncate_contact_history(&path, 2, 2).unwrap();
+        truncate_contact_history(&path, &[1, 2], 2).unwrap();
         assert_eq!(
             std::fs::read_to_string(&path).unwrap(),
             format!("{CONTACT_HISTORY_HEADER}\n{}{}", rows(1), rows(2))
@@ -745,7 +751,7 @@ mod tests {
         assert_eq!(records[3].status, 2);
         assert_eq!(records[3].accumulated_slip, 0.05);
         assert_eq!(pressure_steps(&records, &[1, 9]), vec![1, 2]);
-        let error = truncate_contact_history(&path, 3, 2)
+        let error = truncate_contact_history(&path, &[1, 2, 3], 2)
             .unwrap_err()
             .to_string();
         assert!(

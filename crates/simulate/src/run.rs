@@ -11,7 +11,8 @@
 //! - `history.csv`: one row per step, appended and flushed after each step;
 //! - `state.json`: the state of the last saved step (written atomically, last), for `--resume`;
 //! - `damage_NNNNNN.svg` at the steps nearest the picture times, `contact_history.csv` (one
-//!   row per step and contact node of the line drawn, appended like `history.csv`) and
+//!   row per contact node of the line drawn, every `output.every` steps and at the last step,
+//!   appended like `history.csv`) and
 //!   `contact_history.svg`, drawn from it at the end of every run: see [`crate::pictures`].
 //!
 //! A crash therefore leaves every completed saved step on disk; resuming truncates
@@ -33,11 +34,12 @@ use crate::pictures::{
     CONTACT_HISTORY_HEADER, CONTACT_HISTORY_PICTURE,
 };
 use crate::problem::ProblemSetup;
+use crate::zone::{boundary_penetration, contact_force, contact_zone};
 use contact_damage::contact::ContactStatus;
 use contact_damage::laws::Tensor;
 use contact_damage::mesh::BoundaryPart;
 use contact_damage::quadrature::QuadratureRule;
-use contact_damage::scheme::{Simulation, State};
+use contact_damage::scheme::{ContactTreatment, Simulation, State};
 use contact_damage::space::{strain, LagrangeSpace, Tabulation};
 use contact_damage::vtk::{write_boundary_vtu, write_pvd, write_vtu, CellData, PointData};
 use serde::{Deserialize, Serialize};
@@ -241,6 +243,50 @@ pub fn read_saved_state(dir: &Path) -> Result<SavedState, VerifyError> {
         .map_err(|e| VerifyError::InvalidInput(format!("{}: {e}", path.display())))
 }
 
+/// Whether step n has rows in `contact_history.csv`: every `output.every` steps and the last
+/// step N — not the extra steps saved by an interruption or `--until-step`, so that a resumed
+/// run writes the file of an uninterrupted one.
+fn records_contact_history(n: usize, every: usize, steps: usize) -> bool {
+    n % every == 0 || n == steps
+}
+
+/// Refuses a time step above the stability limit of the explicit terms of (5.1)
+/// ([`contact_damage::stability`]): such a run would not fail, it would produce a displacement
+/// that grows without bound or a contact force that cycles, with every step exact.
+fn check_step_limit<const D: usize>(
+    setup: &ProblemSetup<D>,
+    simulation: &Simulation<D>,
+) -> Result<(), VerifyError> {
+    let limit = simulation.step_limit()?;
+    let step = simulation.time_step();
+    if step <= limit.time_step {
+        return Ok(());
+    }
+    let final_time = setup.problem.final_time;
+    let needed = (final_time / limit.time_step).ceil();
+    let (terms, remedy) = if limit.includes_contact {
+        (
+            "the elastic stress and the normal compliance p_ν",
+            format!(
+                "raise `steps` to at least {needed}, or take the normal compliance implicitly with `[scheme] contact = \"implicit\"` (then only the elastic limit applies)"
+            ),
+        )
+    } else {
+        (
+            "the elastic stress",
+            format!("raise `steps` to at least {needed} (or the viscosity against the elasticity)"),
+        )
+    };
+    Err(VerifyError::InvalidInput(format!(
+        "{}: the time step k = final_time/steps = {final_time}/{} = {step:e} exceeds the stability limit k_max = {:e} of the explicit terms of (5.1) ({terms} at u_(n−1); λ_max(H⁻¹B) = {:e} by {} power iterations): the run would oscillate or blow up; {remedy}",
+        setup.origin,
+        simulation.steps(),
+        limit.time_step,
+        limit.largest_rate,
+        limit.iterations,
+    )))
+}
+
 /// Runs the problem of `setup` with `options`; see the module documentation for the files.
 pub fn run<const D: usize>(
     setup: &ProblemSetup<D>,
@@ -359,13 +405,14 @@ pub fn run<const D: usize>(
             velocity: saved.velocity,
             damage: saved.damage,
         })?;
+        check_step_limit(setup, &simulation)?;
         truncate_history(&history_path, saved.step)?;
-        truncate_contact_history(
-            &contact_history_path,
-            saved.step,
-            contact_line.indices.len(),
-        )?;
+        let recorded: Vec<usize> = (1..=saved.step)
+            .filter(|&n| records_contact_history(n, setup.every, steps))
+            .collect();
+        truncate_contact_history(&contact_history_path, &recorded, contact_line.indices.len())?;
     } else {
+        check_step_limit(setup, &simulation)?;
         std::fs::create_dir_all(&dir).map_err(io_error("creating directory", &dir))?;
         if options.overwrite {
             folder::remove_output(&dir)?;
@@ -430,13 +477,40 @@ pub fn run<const D: usize>(
             simulation.time_step(),
             &mut sums,
         );
+        let (force, tangential_force) = contact_force(
+            &contact,
+            &normal_pressure,
+            &friction_bound,
+            &velocity.multipliers,
+        );
+        // the penetration whose p_ν the step used: at u_{n−1} (5.1), or at u_n (implicit)
+        let pressed = if setup.problem.settings.contact == ContactTreatment::Implicit {
+            state.displacement.clone()
+        } else {
+            let k = simulation.time_step();
+            state
+                .displacement
+                .iter()
+                .zip(&state.velocity)
+                .map(|(u, v)| u - k * v)
+                .collect()
+        };
+        let gap = &setup.problem.data.gap;
+        let zone = contact_zone(
+            &space,
+            &boundary_penetration(&space, &contact, &pressed, |x| gap(x)),
+            contact_line.axis,
+        );
         let viscous_power = viscous_power(setup, &space, &tabulation, &state.velocity);
         sums.viscous_dissipation += simulation.time_step() * viscous_power;
         let row = HistoryRow {
             step: n,
             time: state.time,
             normal_force: on_contact.normal_force,
-            contact_zone: on_contact.contact_zone,
+            tangential_force,
+            force: std::array::from_fn(|i| if i < D { force[i] } else { 0.0 }),
+            contact_zone: zone.measure,
+            zone_bounds: [zone.lower, zone.upper],
             slip_zone: on_contact.slip_zone,
             separated: on_contact.counts[0],
             stick: on_contact.counts[1],
@@ -459,21 +533,6 @@ pub fn run<const D: usize>(
             .write_all(row.csv_line().as_bytes())
             .and_then(|()| history.flush())
             .map_err(io_error("appending to", &history_path))?;
-        contact_history
-            .write_all(
-                contact_line
-                    .csv_rows(
-                        n,
-                        state.time,
-                        &velocity.status,
-                        &normal_pressure,
-                        &speed,
-                        &sums.accumulated_slip,
-                    )
-                    .as_bytes(),
-            )
-            .and_then(|()| contact_history.flush())
-            .map_err(io_error("appending to", &contact_history_path))?;
         if pictures.contains(&n) {
             damage_svg(
                 &dir.join(damage_picture_file(n)),
@@ -484,6 +543,23 @@ pub fn run<const D: usize>(
             )?;
         }
 
+        if records_contact_history(n, setup.every, steps) {
+            contact_history
+                .write_all(
+                    contact_line
+                        .csv_rows(
+                            n,
+                            state.time,
+                            &velocity.status,
+                            &normal_pressure,
+                            &speed,
+                            &sums.accumulated_slip,
+                        )
+                        .as_bytes(),
+                )
+                .and_then(|()| contact_history.flush())
+                .map_err(io_error("appending to", &contact_history_path))?;
+        }
         interrupted = options
             .interrupt
             .as_ref()

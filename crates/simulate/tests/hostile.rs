@@ -236,3 +236,64 @@ fn out_that_is_a_file_is_refused_with_its_name() {
     );
     assert_eq!(std::fs::read_to_string(&out).unwrap(), "mine\n");
 }
+
+/// A contact stiffness or a viscosity that makes k exceed the stability limit of the explicit
+/// terms of (5.1) (issue 13 item 4, issue 17): before this check such runs went to the end with
+/// displacements of 1e9…1e91 and exit code 0. Now they are refused before anything is written,
+/// naming the step, the limit and the remedies; with the implicit normal compliance the stiff
+/// foundation runs.
+#[test]
+fn step_above_the_stability_limit_is_refused_before_anything_is_written() {
+    let dir = scratch("simulate-step-limit");
+    let problem = small_problem(&dir);
+    let text = std::fs::read_to_string(&problem).unwrap();
+    for (name, from, to) in [
+        ("stiff", "stiffness = 4.0", "stiffness = 1e6"),
+        (
+            "soft",
+            "shear = 3.0, bulk = 1.5",
+            "shear = 1e-12, bulk = 0.0",
+        ),
+    ] {
+        let changed = dir.join(format!("{name}.toml"));
+        assert!(text.contains(from));
+        std::fs::write(&changed, text.replace(from, to)).unwrap();
+        let out = dir.join(format!("out-{name}"));
+        let output = simulate(&changed, &out, &[]);
+        assert_eq!(output.status.code(), Some(1), "{name}");
+        let message = stderr(&output);
+        for part in [
+            "time step k",
+            "exceeds the stability limit",
+            "raise `steps` to at least",
+        ] {
+            assert!(
+                message.contains(part),
+                "{name}: `{part}` missing in {message}"
+            );
+        }
+        assert!(
+            !out.exists(),
+            "{name}: the refused run wrote {}",
+            out.display()
+        );
+    }
+    // the stiff foundation with p_ν taken implicitly: only the elastic limit applies, and it holds
+    let stiff = dir.join("stiff.toml");
+    let message = stderr(&simulate(&stiff, &dir.join("x"), &[]));
+    assert!(
+        message.contains("[scheme] contact = \"implicit\""),
+        "{message}"
+    );
+    let implicit = dir.join("implicit.toml");
+    std::fs::write(
+        &implicit,
+        format!(
+            "{}\n[scheme]\ncontact = \"implicit\"\n",
+            std::fs::read_to_string(&stiff).unwrap()
+        ),
+    )
+    .unwrap();
+    let output = simulate(&implicit, &dir.join("out-implicit"), &[]);
+    assert!(output.status.success(), "{}", stderr(&output));
+}

@@ -174,8 +174,24 @@ fn output_is_read_back_with_fields_sizes_and_contact_status() {
         let counts = value(row, "stick") + value(row, "slip") + value(row, "separated");
         assert_eq!(counts, 8.0, "stick + slip + separated = contact nodes");
         let (contact_zone, slip_zone) = (value(row, "contact_zone"), value(row, "slip_zone"));
-        assert!(0.0 <= slip_zone && slip_zone <= contact_zone && contact_zone <= 2.0 + 1e-12);
-        assert_eq!(contact_zone == 0.0, value(row, "separated") == 8.0);
+        assert!((0.0..=2.0 + 1e-12).contains(&slip_zone));
+        assert!((0.0..=2.0 + 1e-12).contains(&contact_zone));
+        // p_ν > 0 at some node exactly where the interpolated penetration is positive somewhere
+        let normal_force = value(row, "normal_force");
+        assert_eq!(contact_zone == 0.0, normal_force == 0.0);
+        if contact_zone > 0.0 {
+            let (low, high) = (value(row, "zone_min"), value(row, "zone_max"));
+            assert!(0.0 <= low && low < high && high <= 2.0 && contact_zone <= high - low + 1e-12);
+        }
+        // Γ3 is flat with outward normal (0, −1): the foundation pushes up with the normal
+        // force, and the friction force is horizontal
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * (1.0 + b.abs());
+        assert!(close(value(row, "force_y"), normal_force));
+        assert!(close(
+            value(row, "force_x").abs(),
+            value(row, "tangential_force")
+        ));
+        assert_eq!(value(row, "force_z"), 0.0);
         max_slip_zone = max_slip_zone.max(slip_zone);
         // the running sums add k × the rates
         assert!(value(row, "friction_power") >= 0.0 && value(row, "viscous_power") >= 0.0);
@@ -688,7 +704,8 @@ fn pictures_show_damage_on_every_cell_and_the_contact_history_with_legends() {
     }
     assert!(!out.join("damage_000004.svg").exists());
 
-    // 8 contact nodes on y = 0 (the clamped corner is none) in each of the 12 steps
+    // 8 contact nodes on y = 0 (the clamped corner is none) at the steps 4, 8 and 12 that
+    // `output.every = 4` records (of 12)
     let csv = read("contact_history.csv");
     let mut lines = csv.lines();
     assert_eq!(
@@ -698,9 +715,9 @@ fn pictures_show_damage_on_every_cell_and_the_contact_history_with_legends() {
     let rows: Vec<Vec<f64>> = lines
         .map(|l| l.split(',').map(|f| f.parse().unwrap()).collect())
         .collect();
-    assert_eq!(rows.len(), 12 * 8);
+    assert_eq!(rows.len(), 3 * 8);
     for (index, row) in rows.iter().enumerate() {
-        assert_eq!(row[0], (index / 8 + 1) as f64);
+        assert_eq!(row[0], (4 * (index / 8 + 1)) as f64);
         assert!(
             (row[2] - (index % 8 + 1) as f64 * 0.25).abs() < 1e-12,
             "{row:?}"
@@ -712,14 +729,15 @@ fn pictures_show_damage_on_every_cell_and_the_contact_history_with_legends() {
     }
     // the bump presses the body onto the foundation: some node is in contact at some step
     assert!(rows.iter().any(|row| row[3] > 0.0 && row[4] > 0.0));
-    // a sticking node does not slide; the slip accumulates k |v_τ| node by node
+    // a sticking node does not slide; the slip accumulates k |v_τ| node by node, at least the
+    // k |v_τ| of the recorded step since the record before
     for (index, row) in rows.iter().enumerate() {
         if row[3] == 1.0 {
             assert!(row[5] < 1e-9, "stick with |v_τ| = {}", row[5]);
         }
         let before = if index >= 8 { rows[index - 8][6] } else { 0.0 };
         assert!(
-            (row[6] - (before + 0.05 * row[5])).abs() <= 1e-14 * (1.0 + row[6]),
+            row[6] >= before + 0.05 * row[5] - 1e-14 * (1.0 + row[6]),
             "{row:?}"
         );
     }
@@ -734,7 +752,8 @@ fn pictures_show_damage_on_every_cell_and_the_contact_history_with_legends() {
         "contact status on Γ3 over time",
         "normal pressure p_ν on Γ3",
         "accumulated slip Σ k |v_τ| on Γ3",
-        "t = 0.3000",
+        // the picture times 0.3 and 0.6 drawn at the nearest recorded steps, 4 and 12
+        "t = 0.2000",
         "t = 0.6000",
         "x on Γ3",
     ] {

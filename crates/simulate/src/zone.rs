@@ -1,0 +1,283 @@
+//! The contact zone of a step from the zero crossing of the interpolated penetration, and the
+//! resultant force of the foundation on the body.
+//!
+//! **Zone.** Normal compliance presses where the penetration r = u_ν − g is positive
+//! (p_ν(r) = 0 for r ≤ 0, (2.10)). Counting whole contact nodes overestimates the zone by up to
+//! half an element at each end; instead r is interpolated on every facet of Γ3 from its values
+//! at the facet's nodes — linearly on the facet (P1), linearly on the sub-facets through the
+//! edge midpoints (P2: 2 sub-segments, 4 sub-triangles) — and the zone is the part of Γ3 where
+//! that interpolant is > 0, each (sub-)facet clipped at its zero crossing. Its measure (a length
+//! in 2D, an area in 3D) and its extent along the axis of Γ3's longest spread (the axis of
+//! `contact_history.csv`) are reported. r at a node uses the node's frame normal ν_a at contact
+//! nodes and the facet normal elsewhere (nodes of Γ3 that carry no contact unknowns: on Γ1, or
+//! of zero weight).
+//!
+//! **Force.** With the nodal contact rule the force of the foundation on the body is
+//! F = Σ_a ω_a (−p_ν(a) ν_a − p_τ(a) R_a (0, λ_a)): the normal pressure pushes the body out of the
+//! foundation and the friction traction −p_τ λ_a opposes the slip (the multipliers λ_a of
+//! (5.1) in the tangent frame R_a of the node).
+
+use contact_damage::contact::ContactNodes;
+use contact_damage::mesh::BoundaryPart;
+use contact_damage::space::LagrangeSpace;
+use nalgebra::SVector;
+
+/// Sub-facets (as facet-local node indices) on which the penetration is interpolated linearly.
+fn sub_facets(dim: usize, degree: usize) -> &'static [&'static [usize]] {
+    match (dim, degree) {
+        (2, 1) => &[&[0, 1]],
+        // facet nodes v0, v1, m01
+        (2, _) => &[&[0, 2], &[2, 1]],
+        (3, 1) => &[&[0, 1, 2]],
+        // facet nodes v0, v1, v2, m01, m12, m02
+        _ => &[&[0, 3, 5], &[1, 4, 3], &[2, 5, 4], &[3, 4, 5]],
+    }
+}
+
+/// The part of Γ3 where the interpolated penetration is positive.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactZone {
+    /// Its measure (length in 2D, area in 3D).
+    pub measure: f64,
+    /// Smallest coordinate along `axis` of a point in it (NaN when the zone is empty).
+    pub lower: f64,
+    /// Largest coordinate along `axis` (NaN when empty).
+    pub upper: f64,
+}
+
+/// The penetration r = u·ν − g at every node of Γ3 (NaN elsewhere), from the nodal displacement
+/// `displacement` and the gap `gap(x)`; ν is the frame normal at contact nodes and the facet
+/// normal at the other nodes of Γ3.
+pub fn boundary_penetration<const D: usize>(
+    space: &LagrangeSpace<D>,
+    contact: &ContactNodes<D>,
+    displacement: &[f64],
+    gap: impl Fn(&[f64; D]) -> f64,
+) -> Vec<f64> {
+    let mesh = space.mesh();
+    let mut penetration = vec![f64::NAN; space.num_nodes()];
+    for f in 0..mesh.num_facets() {
+        if mesh.facet_part(f) != BoundaryPart::Contact {
+            continue;
+        }
+        let facet_normal = SVector::<f64, D>::from(mesh.facet_normal(f));
+        for &node in space.facet_nodes(f) {
+            if !penetration[node].is_nan() {
+                continue;
+            }
+            let normal = match contact.index_of_node[node] {
+                Some(k) => contact.normal(k),
+                None => facet_normal,
+            };
+            let u = SVector::<f64, D>::from_column_slice(&displacement[node * D..node * D + D]);
+            penetration[node] = u.dot(&normal) - gap(&space.node(node));
+        }
+    }
+    penetration
+}
+
+/// The contact zone {r > 0} of the interpolated penetration `penetration` (nodal, as from
+/// [`boundary_penetration`]), with its extent along `axis`.
+pub fn contact_zone<const D: usize>(
+    space: &LagrangeSpace<D>,
+    penetration: &[f64],
+    axis: usize,
+) -> ContactZone {
+    let mesh = space.mesh();
+    let mut zone = ContactZone {
+        measure: 0.0,
+        lower: f64::INFINITY,
+        upper: f64::NEG_INFINITY,
+    };
+    let pieces = sub_facets(D, space.degree());
+    for f in 0..mesh.num_facets() {
+        if mesh.facet_part(f) != BoundaryPart::Contact {
+            continue;
+        }
+        let nodes = space.facet_nodes(f);
+        for piece in pieces {
+            let corners: Vec<(SVector<f64, D>, f64)> = piece
+                .iter()
+                .map(|&i| {
+                    let node = nodes[i];
+                    (SVector::from(space.node(node)), penetration[node])
+                })
+                .collect();
+            let clipped = positive_part(&corners);
+            if clipped.len() < D {
+                continue;
+            }
+            zone.measure += polygon_measure::<D>(&clipped);
+            for point in &clipped {
+                zone.lower = zone.lower.min(point[axis]);
+                zone.upper = zone.upper.max(point[axis]);
+            }
+        }
+    }
+    if zone.measure == 0.0 {
+        zone.lower = f64::NAN;
+        zone.upper = f64::NAN;
+    }
+    zone
+}
+
+/// The polygon (segment in 2D) where the linear interpolant of the corner values is > 0: the
+/// corners with r > 0 and the zero crossings on the edges whose ends have opposite signs, in
+/// boundary order (Sutherland–Hodgman clipping of a simplex by a half-space).
+fn positive_part<const D: usize>(corners: &[(SVector<f64, D>, f64)]) -> Vec<SVector<f64, D>> {
+    let mut out = Vec::with_capacity(corners.len() + 1);
+    let closed = corners.len() > 2;
+    let edges = if closed {
+        corners.len()
+    } else {
+        corners.len() - 1
+    };
+    if !closed && corners[0].1 > 0.0 {
+        out.push(corners[0].0);
+    }
+    for e in 0..edges {
+        let (a, ra) = corners[e];
+        let (b, rb) = corners[(e + 1) % corners.len()];
+        if (ra > 0.0) != (rb > 0.0) {
+            let s = ra / (ra - rb);
+            out.push(a + (b - a) * s);
+        }
+        if rb > 0.0 && (closed || e + 1 < corners.len()) {
+            out.push(b);
+        }
+    }
+    out
+}
+
+/// Length of a segment (2D) or area of a planar polygon (3D).
+fn polygon_measure<const D: usize>(points: &[SVector<f64, D>]) -> f64 {
+    if D == 2 {
+        return (points[points.len() - 1] - points[0]).norm();
+    }
+    let mut twice_area = SVector::<f64, 3>::zeros();
+    let first = points[0];
+    for pair in points[1..].windows(2) {
+        let u = pair[0] - first;
+        let v = pair[1] - first;
+        twice_area += SVector::<f64, 3>::new(u[0], u[1], u[2])
+            .cross(&SVector::<f64, 3>::new(v[0], v[1], v[2]));
+    }
+    0.5 * twice_area.norm()
+}
+
+/// The force of the foundation on the body, F = Σ_a ω_a (−p_ν(a) ν_a − p_τ(a) R_a (0, λ_a))
+/// (Cartesian), and the magnitude of its friction part.
+pub fn contact_force<const D: usize>(
+    contact: &ContactNodes<D>,
+    normal_pressure: &[f64],
+    friction_bound: &[f64],
+    multipliers: &[f64],
+) -> (SVector<f64, D>, f64) {
+    let mut normal_part = SVector::<f64, D>::zeros();
+    let mut friction_part = SVector::<f64, D>::zeros();
+    for (k, frame) in contact.frames.iter().enumerate() {
+        let weight = contact.weights[k];
+        normal_part -= frame.column(0) * (weight * normal_pressure[k]);
+        for j in 1..D {
+            friction_part -=
+                frame.column(j) * (weight * friction_bound[k] * multipliers[k * (D - 1) + j - 1]);
+        }
+    }
+    (normal_part + friction_part, friction_part.norm())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::history::tests::unit_square_space;
+    use contact_damage::mesh::{BoundaryPart::*, Mesh};
+    use std::sync::Arc;
+
+    #[test]
+    fn zone_of_a_linear_penetration_ends_at_its_zero_crossing() {
+        // Γ3 = {y = 0} of (0, 1) × (0, 2), 3 cells along x; r = 0.4 − x on Γ3 (u = 0, g = x − 0.4)
+        for degree in [1, 2] {
+            let space = unit_square_space(degree);
+            let contact = ContactNodes::new(&space).unwrap();
+            let displacement = vec![0.0; space.num_nodes() * 2];
+            let r = boundary_penetration(&space, &contact, &displacement, |x| x[0] - 0.4);
+            let zone = contact_zone(&space, &r, 0);
+            // the clamped corner x = 0 is on Γ3 too: the zone is [0, 0.4]
+            assert!((zone.measure - 0.4).abs() < 1e-14, "{zone:?}");
+            assert!(zone.lower.abs() < 1e-14 && (zone.upper - 0.4).abs() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn zone_of_a_p2_penetration_uses_the_midpoints() {
+        // r = 0.1 at the vertices, −0.1 at the midpoints: a positive sliver at every vertex, of
+        // half-width (h/2)/2 on each side; whole nodes would count all of Γ3
+        let space = unit_square_space(2);
+        let contact = ContactNodes::new(&space).unwrap();
+        let displacement = vec![0.0; space.num_nodes() * 2];
+        let vertices = space.mesh().num_vertices();
+        let mut r = boundary_penetration(&space, &contact, &displacement, |_| 0.0);
+        for (node, value) in r.iter_mut().enumerate() {
+            if !value.is_nan() {
+                *value = if node < vertices { 0.1 } else { -0.1 };
+            }
+        }
+        let zone = contact_zone(&space, &r, 0);
+        // 3 cells of h = 1/3: 6 half-sub-segments of length h/4
+        assert!(
+            (zone.measure - 6.0 * (1.0 / 12.0)).abs() < 1e-14,
+            "{zone:?}"
+        );
+        assert!(zone.lower.abs() < 1e-14 && (zone.upper - 1.0).abs() < 1e-14);
+    }
+
+    #[test]
+    fn zone_on_a_3d_face_is_the_clipped_area() {
+        // unit cube, Γ3 = {z = 0}; r = 0.3 − x: the zone is [0, 0.3] × [0, 1], area 0.3
+        let mesh = Mesh::box_mesh(
+            [0.0; 3],
+            [1.0; 3],
+            [3, 2, 2],
+            [[Neumann, Neumann], [Dirichlet, Neumann], [Contact, Neumann]],
+        )
+        .unwrap();
+        for degree in [1, 2] {
+            let space = LagrangeSpace::new(Arc::new(mesh.clone()), degree).unwrap();
+            let contact = ContactNodes::new(&space).unwrap();
+            let displacement = vec![0.0; space.num_nodes() * 3];
+            let r = boundary_penetration(&space, &contact, &displacement, |x| x[0] - 0.3);
+            let zone = contact_zone(&space, &r, 0);
+            assert!((zone.measure - 0.3).abs() < 1e-14, "{zone:?}");
+            assert!(zone.lower.abs() < 1e-14 && (zone.upper - 0.3).abs() < 1e-14);
+        }
+    }
+
+    #[test]
+    fn empty_zone_has_no_bounds() {
+        let space = unit_square_space(1);
+        let contact = ContactNodes::new(&space).unwrap();
+        let displacement = vec![0.0; space.num_nodes() * 2];
+        let r = boundary_penetration(&space, &contact, &displacement, |_| 0.1);
+        let zone = contact_zone(&space, &r, 0);
+        assert_eq!(zone.measure, 0.0);
+        assert!(zone.lower.is_nan() && zone.upper.is_nan());
+    }
+
+    #[test]
+    fn contact_force_is_the_weighted_sum_of_the_nodal_tractions() {
+        // Γ3 = {y = 0}, outward normal (0, −1): pressure p pushes up, friction with λ = 1 along
+        // the tangent t_1 pushes against it
+        let space = unit_square_space(1);
+        let contact = ContactNodes::new(&space).unwrap();
+        let count = contact.len();
+        let total: f64 = contact.weights.iter().sum();
+        let pressure = vec![2.0; count];
+        let bound = vec![0.5; count];
+        let multipliers = vec![1.0; count];
+        let (force, friction) = contact_force(&contact, &pressure, &bound, &multipliers);
+        let tangent = contact.frames[0].column(1).into_owned();
+        let expected = SVector::<f64, 2>::new(0.0, 2.0 * total) - tangent * (0.5 * total);
+        assert!((force - expected).norm() < 1e-14, "{force} vs {expected}");
+        assert!((friction - 0.5 * total).abs() < 1e-14);
+    }
+}
