@@ -236,6 +236,47 @@ pub fn contact_integrals<const D: usize>(
     integrals
 }
 
+/// Steps over which a cycle of the normal contact force is recognized.
+pub const CYCLE_WINDOW_STEPS: usize = 12;
+
+/// Watches the total normal contact force for a cycle of period two — the signature of a step
+/// above the stability limit of the explicit normal compliance where p_ν switches off on
+/// separation (see `contact_damage::stability`): over the last [`CYCLE_WINDOW_STEPS`] steps every
+/// change reverses the previous one, the changes are not small (above 1e-8 of the force) and
+/// they do not decay. A damped oscillation, a load that varies smoothly or a force at rest is
+/// no cycle.
+#[derive(Debug, Clone, Default)]
+pub struct ForceCycle {
+    recent: std::collections::VecDeque<f64>,
+}
+
+impl ForceCycle {
+    /// Adds the force of the next step; returns the smallest and largest force of the window
+    /// when the window is a cycle.
+    pub fn push(&mut self, normal_force: f64) -> Option<(f64, f64)> {
+        self.recent.push_back(normal_force);
+        if self.recent.len() > CYCLE_WINDOW_STEPS {
+            self.recent.pop_front();
+        }
+        if self.recent.len() < CYCLE_WINDOW_STEPS {
+            return None;
+        }
+        let values: Vec<f64> = self.recent.iter().copied().collect();
+        let changes: Vec<f64> = values.windows(2).map(|w| w[1] - w[0]).collect();
+        let scale = values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let alternating = changes.windows(2).all(|w| w[0] * w[1] < 0.0);
+        let large = changes.iter().all(|c| c.abs() > 1e-8 * scale);
+        let sustained = changes[changes.len() - 1].abs() >= changes[0].abs();
+        (alternating && large && sustained).then(|| {
+            values
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(low, high), &v| {
+                    (low.min(v), high.max(v))
+                })
+        })
+    }
+}
+
 /// Cells per task of the parallel cell sums.
 const CELL_CHUNK: usize = 4096;
 
@@ -479,6 +520,31 @@ pub(crate) mod tests {
             .iter()
             .all(|s| (s - 0.04).abs() < 1e-15));
         assert!((sums.friction_dissipation - 0.02 * total).abs() < 1e-15);
+    }
+
+    #[test]
+    fn force_cycle_is_a_sustained_alternation() {
+        let feed = |values: &mut dyn Iterator<Item = f64>| {
+            let mut cycle = ForceCycle::default();
+            values.map(|v| cycle.push(v)).last().flatten()
+        };
+        // a period-2 cycle ±19 % around 1 (the failure of issue 17)
+        let period_two = (0..30).map(|n| if n % 2 == 0 { 1.19 } else { 0.81 });
+        assert_eq!(feed(&mut period_two.clone()), Some((0.81, 1.19)));
+        // growing: an instability
+        let growing =
+            (0..30).map(|n| 1.0 + 0.01 * 1.1f64.powi(n) * if n % 2 == 0 { 1.0 } else { -1.0 });
+        assert!(feed(&mut growing.clone()).is_some());
+        // damped (|1 − kλ| = 0.9), smooth, at rest, or too short: no cycle
+        let damped = (0..30).map(|n| 1.0 + 0.2 * (-0.9f64).powi(n));
+        assert_eq!(feed(&mut damped.clone()), None);
+        let smooth = (0..30).map(|n| (0.3 * n as f64).sin());
+        assert_eq!(feed(&mut smooth.clone()), None);
+        assert_eq!(feed(&mut std::iter::repeat_n(0.7, 30)), None);
+        assert_eq!(feed(&mut period_two.take(CYCLE_WINDOW_STEPS - 1)), None);
+        // round-off flutter at rest is no cycle
+        let flutter = (0..30).map(|n| 1.0 + 1e-15 * if n % 2 == 0 { 1.0 } else { -1.0 });
+        assert_eq!(feed(&mut flutter.clone()), None);
     }
 
     #[test]

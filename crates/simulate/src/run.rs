@@ -26,7 +26,8 @@
 use crate::folder;
 use crate::history::{
     contact_integrals, damage_integrals, tangential_speed, truncate_history, viscous_power,
-    ContactStep, HistoryRow, RunningSums, HISTORY_FILE, HISTORY_HEADER,
+    ContactStep, ForceCycle, HistoryRow, RunningSums, CYCLE_WINDOW_STEPS, HISTORY_FILE,
+    HISTORY_HEADER,
 };
 use crate::pictures::{
     contact_history_svg, damage_picture_file, damage_svg, picture_steps, pressure_steps,
@@ -41,6 +42,7 @@ use contact_damage::mesh::BoundaryPart;
 use contact_damage::quadrature::QuadratureRule;
 use contact_damage::scheme::{ContactTreatment, Simulation, State};
 use contact_damage::space::{strain, LagrangeSpace, Tabulation};
+use contact_damage::stability::StepLimit;
 use contact_damage::vtk::{write_boundary_vtu, write_pvd, write_vtu, CellData, PointData};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -256,11 +258,11 @@ fn records_contact_history(n: usize, every: usize, steps: usize) -> bool {
 fn check_step_limit<const D: usize>(
     setup: &ProblemSetup<D>,
     simulation: &Simulation<D>,
-) -> Result<(), VerifyError> {
+) -> Result<StepLimit, VerifyError> {
     let limit = simulation.step_limit()?;
     let step = simulation.time_step();
     if step <= limit.time_step {
-        return Ok(());
+        return Ok(limit);
     }
     let final_time = setup.problem.final_time;
     let needed = (final_time / limit.time_step).ceil();
@@ -278,7 +280,7 @@ fn check_step_limit<const D: usize>(
         )
     };
     Err(VerifyError::InvalidInput(format!(
-        "{}: the time step k = final_time/steps = {final_time}/{} = {step:e} exceeds the stability limit k_max = {:e} of the explicit terms of (5.1) ({terms} at u_(n−1); λ_max(H⁻¹B) = {:e} by {} power iterations): the run would oscillate or blow up; {remedy}",
+        "{}: the time step k = final_time/steps = {final_time}/{} = {step:e} exceeds the stability limit k_max = {:.3e} of the explicit terms of (5.1) ({terms} at u_(n−1); λ_max(H⁻¹B) = {:.3e} by {} power iterations): the run would oscillate or blow up; {remedy}",
         setup.origin,
         simulation.steps(),
         limit.time_step,
@@ -318,6 +320,7 @@ pub fn run<const D: usize>(
 
     let mut saved_steps = Vec::new();
     let mut sums = RunningSums::new(contact.len());
+    let step_limit;
     if options.resume {
         let saved = read_saved_state(&dir)?;
         let mismatch = |what: &str, saved_value: String, problem_value: String| {
@@ -405,14 +408,14 @@ pub fn run<const D: usize>(
             velocity: saved.velocity,
             damage: saved.damage,
         })?;
-        check_step_limit(setup, &simulation)?;
+        step_limit = check_step_limit(setup, &simulation)?;
         truncate_history(&history_path, saved.step)?;
         let recorded: Vec<usize> = (1..=saved.step)
             .filter(|&n| records_contact_history(n, setup.every, steps))
             .collect();
         truncate_contact_history(&contact_history_path, &recorded, contact_line.indices.len())?;
     } else {
-        check_step_limit(setup, &simulation)?;
+        step_limit = check_step_limit(setup, &simulation)?;
         std::fs::create_dir_all(&dir).map_err(io_error("creating directory", &dir))?;
         if options.overwrite {
             folder::remove_output(&dir)?;
@@ -440,16 +443,18 @@ pub fn run<const D: usize>(
     let last_step = options.until_step.unwrap_or(steps).min(steps);
     let clock = Instant::now();
     let mut max_kkt = [0.0f64; 2];
+    let mut force_cycle = ForceCycle::default();
     let mut interrupted = false;
     if !options.quiet {
         println!(
-            "{}: d = {D}, l = {}, {} cells, {} nodes, {} contact nodes, N = {steps}, k = {:e}{}",
+            "{}: d = {D}, l = {}, {} cells, {} nodes, {} contact nodes, N = {steps}, k = {:e} (stability limit {:.3e}){}",
             setup.name,
             space.degree(),
             space.mesh().num_cells(),
             space.num_nodes(),
             contact.len(),
             simulation.time_step(),
+            step_limit.time_step,
             if started_from > 0 {
                 format!(", resuming after step {started_from}")
             } else {
@@ -501,6 +506,15 @@ pub fn run<const D: usize>(
             &boundary_penetration(&space, &contact, &pressed, |x| gap(x)),
             contact_line.axis,
         );
+        if let Some((low, high)) = force_cycle.push(on_contact.normal_force) {
+            return Err(VerifyError::InvalidInput(format!(
+                "{}: the total normal contact force cycles with period two between {low:.6e} and {high:.6e} over steps {}..={n}, although every step is solved exactly: the step k = {:e} is above the stability limit of the explicit normal compliance for the contact state reached (the estimate at the start was {:.3e}); raise `steps` or use `[scheme] contact = \"implicit\"`",
+                setup.origin,
+                n + 1 - CYCLE_WINDOW_STEPS,
+                simulation.time_step(),
+                step_limit.time_step,
+            )));
+        }
         let viscous_power = viscous_power(setup, &space, &tabulation, &state.velocity);
         sums.viscous_dissipation += simulation.time_step() * viscous_power;
         let row = HistoryRow {
