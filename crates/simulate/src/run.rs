@@ -40,6 +40,8 @@ use contact_damage::quadrature::QuadratureRule;
 use contact_damage::scheme::{Simulation, State};
 use contact_damage::space::{strain, LagrangeSpace, Tabulation};
 use contact_damage::vtk::{write_boundary_vtu, write_pvd, write_vtu, CellData, PointData};
+use contact_input::output::{write_atomic, write_json_atomic};
+use contact_input::InputError;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fs::OpenOptions;
@@ -48,8 +50,6 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
-use verify::output::{write_atomic, write_json_atomic};
-use verify::VerifyError;
 
 /// Name of the restart file.
 pub const STATE_FILE: &str = "state.json";
@@ -166,17 +166,17 @@ pub fn cell_stress<const D: usize>(
     stress
 }
 
-fn io_error(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> VerifyError {
+fn io_error(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> InputError {
     let path = path.to_path_buf();
-    move |e| VerifyError::io(action, path, e)
+    move |e| InputError::io(action, path, e)
 }
 
 /// Checks the values of a saved state as strictly as an input file: fields of the right
 /// lengths, finite, β_n ∈ [0, 1] (the scheme's 𝒦^h), nonnegative running sums and slips, and
 /// saved steps strictly increasing. The error names the file, the field and the first bad entry.
-fn check_saved_values<const D: usize>(saved: &SavedState, path: &Path) -> Result<(), VerifyError> {
+fn check_saved_values<const D: usize>(saved: &SavedState, path: &Path) -> Result<(), InputError> {
     let bad = |field: &str, detail: String| {
-        VerifyError::InvalidInput(format!("{}: `{field}` {detail}", path.display()))
+        InputError::InvalidInput(format!("{}: `{field}` {detail}", path.display()))
     };
     for (field, values, length) in [
         ("displacement", &saved.displacement, saved.nodes * D),
@@ -234,18 +234,18 @@ fn check_saved_values<const D: usize>(saved: &SavedState, path: &Path) -> Result
 }
 
 /// Reads `state.json` of a folder.
-pub fn read_saved_state(dir: &Path) -> Result<SavedState, VerifyError> {
+pub fn read_saved_state(dir: &Path) -> Result<SavedState, InputError> {
     let path = dir.join(STATE_FILE);
     let text = std::fs::read_to_string(&path).map_err(io_error("reading saved state", &path))?;
     serde_json::from_str(&text)
-        .map_err(|e| VerifyError::InvalidInput(format!("{}: {e}", path.display())))
+        .map_err(|e| InputError::InvalidInput(format!("{}: {e}", path.display())))
 }
 
 /// Runs the problem of `setup` with `options`; see the module documentation for the files.
 pub fn run<const D: usize>(
     setup: &ProblemSetup<D>,
     options: &RunOptions,
-) -> Result<RunOutcome, VerifyError> {
+) -> Result<RunOutcome, InputError> {
     let dir = options
         .out
         .clone()
@@ -268,7 +268,7 @@ pub fn run<const D: usize>(
     let contact_history_path = dir.join(CONTACT_HISTORY_FILE);
     let contact_line = ContactLine::new(&space, &contact);
     let pictures = picture_steps(&setup.pictures, simulation.time_step(), steps);
-    let invalid = |message: String| VerifyError::InvalidInput(message);
+    let invalid = |message: String| InputError::InvalidInput(message);
 
     let mut saved_steps = Vec::new();
     let mut sums = RunningSums::new(contact.len());

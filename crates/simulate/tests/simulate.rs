@@ -506,7 +506,7 @@ fn error_of(from: &str, to: &str) -> String {
     let text = EXAMPLE_2D.replace(from, to);
     assert_ne!(text, EXAMPLE_2D, "`{from}` is not in the example");
     let path = Path::new("bad.toml");
-    let file = match verify::case::parse_toml(&text, "bad.toml") {
+    let file = match simulate::problem::parse_problem_file(&text, "bad.toml") {
         Ok(file) => file,
         Err(error) => return error.to_string(),
     };
@@ -748,7 +748,7 @@ fn solver_settings_are_read_from_the_problem_file() {
         "[output]",
         "[solver]\nvelocity_tolerance = 1e-11\nmax_newton = 7\nfriction_tolerance = 1e-13\nfriction_max_newton = 30\nfriction_max_gradient = 500\ndamage_tolerance = 1e-13\ndamage_max_iterations = 40\n[output]",
     );
-    let file = verify::case::parse_toml(&text, "solver.toml").unwrap();
+    let file = simulate::problem::parse_problem_file(&text, "solver.toml").unwrap();
     let setup = ProblemSetup::<2>::new(file, Path::new("solver.toml")).unwrap();
     let settings = &setup.problem.settings;
     assert_eq!(settings.velocity.tolerance, 1e-11);
@@ -759,7 +759,7 @@ fn solver_settings_are_read_from_the_problem_file() {
     assert_eq!(settings.damage.tolerance, 1e-13);
     assert_eq!(settings.damage.max_iterations, 40);
     // missing entries keep the defaults
-    let file = verify::case::parse_toml(EXAMPLE_2D, "example.toml").unwrap();
+    let file = simulate::problem::parse_problem_file(EXAMPLE_2D, "example.toml").unwrap();
     let setup = ProblemSetup::<2>::new(file, Path::new("example.toml")).unwrap();
     let defaults = contact_damage::scheme::SchemeSettings::default();
     assert_eq!(

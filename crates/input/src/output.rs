@@ -17,7 +17,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use serde::{Serialize, Serializer};
 
-use crate::error::VerifyError;
+use crate::error::InputError;
 
 /// How a missing value is written in CSV cells and terminal tables: an em dash.
 pub const MISSING: &str = "—";
@@ -63,9 +63,9 @@ static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 ///
 /// Missing parent directories are created. On failure the temporary file is removed and the
 /// error names the path and the failed action.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), VerifyError> {
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), InputError> {
     let file_name = path.file_name().ok_or_else(|| {
-        VerifyError::io(
+        InputError::io(
             "writing",
             path,
             io::Error::new(io::ErrorKind::InvalidInput, "the path has no file name"),
@@ -76,13 +76,13 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), VerifyError> {
         _ => PathBuf::from("."),
     };
     fs::create_dir_all(&directory)
-        .map_err(|source| VerifyError::io("creating directory", &directory, source))?;
+        .map_err(|source| InputError::io("creating directory", &directory, source))?;
 
     let (temp_path, mut temp_file) = create_temp_file(&directory, file_name)?;
     let written = temp_file
         .write_all(bytes)
         .and_then(|()| temp_file.sync_all())
-        .map_err(|source| VerifyError::io("writing temporary file", &temp_path, source));
+        .map_err(|source| InputError::io("writing temporary file", &temp_path, source));
     drop(temp_file);
     if let Err(error) = written {
         let _ = fs::remove_file(&temp_path);
@@ -90,15 +90,15 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), VerifyError> {
     }
     if let Err(source) = fs::rename(&temp_path, path) {
         let _ = fs::remove_file(&temp_path);
-        return Err(VerifyError::io("replacing", path, source));
+        return Err(InputError::io("replacing", path, source));
     }
     sync_directory(&directory);
     Ok(())
 }
 
 /// Serialize `value` as pretty-printed JSON (with a final newline) and write it atomically.
-pub fn write_json_atomic<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), VerifyError> {
-    let mut bytes = serde_json::to_vec_pretty(value).map_err(|error| VerifyError::Serialize {
+pub fn write_json_atomic<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), InputError> {
+    let mut bytes = serde_json::to_vec_pretty(value).map_err(|error| InputError::Serialize {
         path: path.to_path_buf(),
         message: error.to_string(),
     })?;
@@ -110,8 +110,8 @@ pub fn write_json_atomic<T: serde::Serialize>(path: &Path, value: &T) -> Result<
 /// as the `csv` crate does for structs) and write it atomically.
 ///
 /// An empty slice gives an empty file (there is no row to take the header from).
-pub fn write_csv_atomic<R: serde::Serialize>(path: &Path, rows: &[R]) -> Result<(), VerifyError> {
-    let serialize_error = |error: csv::Error| VerifyError::Serialize {
+pub fn write_csv_atomic<R: serde::Serialize>(path: &Path, rows: &[R]) -> Result<(), InputError> {
+    let serialize_error = |error: csv::Error| InputError::Serialize {
         path: path.to_path_buf(),
         message: error.to_string(),
     };
@@ -119,12 +119,10 @@ pub fn write_csv_atomic<R: serde::Serialize>(path: &Path, rows: &[R]) -> Result<
     for row in rows {
         writer.serialize(row).map_err(serialize_error)?;
     }
-    let bytes = writer
-        .into_inner()
-        .map_err(|error| VerifyError::Serialize {
-            path: path.to_path_buf(),
-            message: error.to_string(),
-        })?;
+    let bytes = writer.into_inner().map_err(|error| InputError::Serialize {
+        path: path.to_path_buf(),
+        message: error.to_string(),
+    })?;
     write_atomic(path, &bytes)
 }
 
@@ -133,7 +131,7 @@ pub fn write_csv_atomic<R: serde::Serialize>(path: &Path, rows: &[R]) -> Result<
 fn create_temp_file(
     directory: &Path,
     file_name: &std::ffi::OsStr,
-) -> Result<(PathBuf, File), VerifyError> {
+) -> Result<(PathBuf, File), InputError> {
     let process = std::process::id();
     loop {
         let serial = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
@@ -149,7 +147,7 @@ fn create_temp_file(
             Ok(file) => return Ok((temp_path, file)),
             Err(error) if error.kind() == io::ErrorKind::AlreadyExists => continue,
             Err(source) => {
-                return Err(VerifyError::io(
+                return Err(InputError::io(
                     "creating temporary file",
                     &temp_path,
                     source,
@@ -168,30 +166,8 @@ fn sync_directory(directory: &Path) {
 }
 
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
     use super::*;
-
-    /// A fresh, empty directory under the system temporary directory, removed on drop.
-    pub(crate) struct ScratchDir(pub PathBuf);
-
-    impl ScratchDir {
-        pub(crate) fn new(name: &str) -> Self {
-            let serial = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
-            let path = std::env::temp_dir().join(format!(
-                "verify-test-{name}-{}-{serial}",
-                std::process::id()
-            ));
-            let _ = fs::remove_dir_all(&path);
-            fs::create_dir_all(&path).expect("create scratch directory");
-            ScratchDir(path)
-        }
-    }
-
-    impl Drop for ScratchDir {
-        fn drop(&mut self) {
-            let _ = fs::remove_dir_all(&self.0);
-        }
-    }
 
     fn entries(directory: &Path) -> Vec<String> {
         let mut names: Vec<String> = fs::read_dir(directory)
@@ -211,30 +187,30 @@ pub(crate) mod tests {
 
     #[test]
     fn bytes_round_trip_and_no_temporary_file_is_left() {
-        let scratch = ScratchDir::new("bytes");
-        let path = scratch.0.join("nested/deeper/report.txt");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("nested/deeper/report.txt");
         write_atomic(&path, b"hello\nworld\n").unwrap();
         assert_eq!(fs::read(&path).unwrap(), b"hello\nworld\n");
         assert_eq!(
-            entries(&scratch.0.join("nested/deeper")),
+            entries(&scratch.path().join("nested/deeper")),
             vec!["report.txt"]
         );
     }
 
     #[test]
     fn existing_file_is_replaced_whole() {
-        let scratch = ScratchDir::new("replace");
-        let path = scratch.0.join("report.txt");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("report.txt");
         write_atomic(&path, &[b'x'; 1000]).unwrap();
         write_atomic(&path, b"short").unwrap();
         assert_eq!(fs::read(&path).unwrap(), b"short");
-        assert_eq!(entries(&scratch.0), vec!["report.txt"]);
+        assert_eq!(entries(scratch.path()), vec!["report.txt"]);
     }
 
     #[test]
     fn json_round_trips_pretty_printed() {
-        let scratch = ScratchDir::new("json");
-        let path = scratch.0.join("report.json");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("report.json");
         let rows = vec![
             Row {
                 level: 0,
@@ -257,8 +233,8 @@ pub(crate) mod tests {
 
     #[test]
     fn csv_round_trips_with_header() {
-        let scratch = ScratchDir::new("csv");
-        let path = scratch.0.join("table.csv");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("table.csv");
         let rows = vec![
             Row {
                 level: 0,
@@ -277,15 +253,15 @@ pub(crate) mod tests {
         let mut reader = csv::Reader::from_path(&path).unwrap();
         let back: Vec<Row> = reader.deserialize().map(|row| row.unwrap()).collect();
         assert_eq!(back, rows);
-        assert_eq!(entries(&scratch.0), vec!["table.csv"]);
+        assert_eq!(entries(scratch.path()), vec!["table.csv"]);
     }
 
     #[test]
     fn unwritable_path_gives_an_error_naming_it() {
-        let scratch = ScratchDir::new("unwritable");
+        let scratch = tempfile::tempdir().unwrap();
         // A regular file where a directory is needed: the parent can never be created,
         // whatever the privileges of the user running the tests.
-        let blocker = scratch.0.join("not-a-directory");
+        let blocker = scratch.path().join("not-a-directory");
         fs::write(&blocker, b"").unwrap();
         let path = blocker.join("report.json");
         let error = write_json_atomic(&path, &[1, 2, 3]).unwrap_err();
@@ -294,7 +270,7 @@ pub(crate) mod tests {
             message.contains(&blocker.display().to_string()),
             "error does not name the path: {message}"
         );
-        assert!(matches!(error, VerifyError::Io { .. }));
+        assert!(matches!(error, InputError::Io { .. }));
     }
 
     #[derive(serde::Serialize)]
@@ -306,8 +282,8 @@ pub(crate) mod tests {
 
     #[test]
     fn a_missing_value_is_a_dash_in_csv() {
-        let scratch = ScratchDir::new("missing-csv");
-        let path = scratch.0.join("table.csv");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("table.csv");
         let rows = [0.5, f64::NAN, f64::INFINITY].map(|error| CsvRow { error, count: 1 });
         write_csv_atomic(&path, &rows).unwrap();
         let text = fs::read_to_string(&path).unwrap();
@@ -324,8 +300,8 @@ pub(crate) mod tests {
 
     #[test]
     fn a_missing_value_is_null_in_json() {
-        let scratch = ScratchDir::new("missing-json");
-        let path = scratch.0.join("record.json");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("record.json");
         let records = [
             JsonRecord {
                 rate: 0.25,
