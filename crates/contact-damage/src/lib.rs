@@ -10,7 +10,7 @@
 //!
 //! Modules, one concept each: [`mesh`], [`quadrature`], [`element`], [`space`], [`assembly`],
 //! [`linalg`], [`laws`], [`contact`], [`friction`], [`velocity`], [`obstacle`], [`damage`],
-//! [`gmsh`] (mesh files), [`vtk`] (ParaView output),
+//! [`gmsh`] (mesh files), [`vtk`] (ParaView output), [`atomic`] (atomic file writing),
 //! [`scheme`].
 //!
 //! ```
@@ -54,6 +54,7 @@
 //! ```
 
 pub mod assembly;
+pub mod atomic;
 pub mod contact;
 pub mod damage;
 pub mod element;

@@ -3,17 +3,15 @@
 //! A report file is either absent, or complete with the old contents, or complete with the new
 //! contents — never truncated, even if the harness is killed mid-write: the bytes go to a
 //! temporary file in the same directory, which is flushed to disk (`fsync`) and then renamed
-//! over the target (an atomic replacement on POSIX file systems).
+//! over the target (an atomic replacement on POSIX file systems). The writer is the solver
+//! crate's [`contact_damage::atomic`], the one of the VTU/PVD files too.
 //!
 //! A number without a value (e.g. the velocity error of a k-study, whose reference is discrete;
 //! a rate between two levels where one error is zero) is carried as a non-finite `f64` and never
 //! written as `NaN` or `inf`: it is `null` in JSON ([`finite_or_null`]) and [`MISSING`] (an em
 //! dash) in CSV cells ([`finite_or_dash`]) and in the terminal tables.
 
-use std::fs::{self, File, OpenOptions};
-use std::io::{self, Write};
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::path::Path;
 
 use serde::{Serialize, Serializer};
 
@@ -55,45 +53,21 @@ pub fn format_or_dash(value: f64, format: impl Fn(f64) -> String) -> String {
     finite(value).map_or_else(|| MISSING.to_string(), format)
 }
 
-/// Distinguishes temporary files of concurrent writers within one process.
-static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
-
-/// Write `bytes` to `path` atomically: write to a temporary file in the same directory,
-/// `fsync` it, rename it over `path`, then `fsync` the directory (best effort).
-///
-/// Missing parent directories are created. On failure the temporary file is removed and the
-/// error names the path and the failed action.
+/// Write `bytes` to `path` atomically ([`contact_damage::atomic::write_atomic`]: a temporary
+/// file in the same directory, synced, renamed over `path`). Missing parent directories are
+/// created; the error names the path and the failed action.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), InputError> {
-    let file_name = path.file_name().ok_or_else(|| {
-        InputError::io(
-            "writing",
-            path,
-            io::Error::new(io::ErrorKind::InvalidInput, "the path has no file name"),
-        )
-    })?;
-    let directory = match path.parent() {
-        Some(parent) if !parent.as_os_str().is_empty() => parent.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    fs::create_dir_all(&directory)
-        .map_err(|source| InputError::io("creating directory", &directory, source))?;
-
-    let (temp_path, mut temp_file) = create_temp_file(&directory, file_name)?;
-    let written = temp_file
-        .write_all(bytes)
-        .and_then(|()| temp_file.sync_all())
-        .map_err(|source| InputError::io("writing temporary file", &temp_path, source));
-    drop(temp_file);
-    if let Err(error) = written {
-        let _ = fs::remove_file(&temp_path);
-        return Err(error);
+    if let Some(directory) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(directory)
+            .map_err(|source| InputError::io("creating directory", directory, source))?;
     }
-    if let Err(source) = fs::rename(&temp_path, path) {
-        let _ = fs::remove_file(&temp_path);
-        return Err(InputError::io("replacing", path, source));
-    }
-    sync_directory(&directory);
-    Ok(())
+    contact_damage::atomic::write_atomic(path, |out| out.write_all(bytes)).map_err(|error| {
+        InputError::Io {
+            action: error.action,
+            path: error.path,
+            source: error.source,
+        }
+    })
 }
 
 /// Serialize `value` as pretty-printed JSON (with a final newline) and write it atomically.
@@ -126,48 +100,10 @@ pub fn write_csv_atomic<R: serde::Serialize>(path: &Path, rows: &[R]) -> Result<
     write_atomic(path, &bytes)
 }
 
-/// Create a new, empty temporary file `.<file_name>.tmp.<pid>.<n>` in `directory`
-/// (exclusive creation, so two writers never share a temporary file).
-fn create_temp_file(
-    directory: &Path,
-    file_name: &std::ffi::OsStr,
-) -> Result<(PathBuf, File), InputError> {
-    let process = std::process::id();
-    loop {
-        let serial = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
-        let mut temp_name = std::ffi::OsString::from(".");
-        temp_name.push(file_name);
-        temp_name.push(format!(".tmp.{process}.{serial}"));
-        let temp_path = directory.join(temp_name);
-        match OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&temp_path)
-        {
-            Ok(file) => return Ok((temp_path, file)),
-            Err(error) if error.kind() == io::ErrorKind::AlreadyExists => continue,
-            Err(source) => {
-                return Err(InputError::io(
-                    "creating temporary file",
-                    &temp_path,
-                    source,
-                ))
-            }
-        }
-    }
-}
-
-/// Flush the directory entry of a rename to disk. Best effort: not every platform or file
-/// system supports syncing a directory, and the data file itself is already synced.
-fn sync_directory(directory: &Path) {
-    if let Ok(handle) = File::open(directory) {
-        let _ = handle.sync_all();
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::fs;
 
     fn entries(directory: &Path) -> Vec<String> {
         let mut names: Vec<String> = fs::read_dir(directory)

@@ -11,9 +11,9 @@
 //! - `solution.pvd`, `contact.pvd`, `state.json`, `history.csv`, `contact_history.csv`,
 //!   `contact_history.svg`;
 //! - the temporaries of the atomic writers of these files, left behind by `kill -9` or a
-//!   second Ctrl-C ([`is_stale_temporary`]): `.<name>.<pid>.<n>.tmp` (VTU/PVD files) and
-//!   `.<name>.tmp.<pid>.<n>` (the other files), `<name>` one of the names above and `<pid>`,
-//!   `<n>` decimal numbers.
+//!   second Ctrl-C ([`is_stale_temporary`]): `.<name>.tmp.<pid>.<n>` (the one writer,
+//!   `contact_damage::atomic`) and `.<name>.<pid>.<n>.tmp` (VTU/PVD files of earlier versions),
+//!   `<name>` one of the names above and `<pid>`, `<n>` decimal numbers.
 //!
 //! What each mode does in the folder:
 //!
@@ -71,7 +71,7 @@ pub fn is_stale_temporary(name: &str) -> bool {
     let Some(rest) = name.strip_prefix('.') else {
         return false;
     };
-    // `.<name>.<pid>.<n>.tmp` (contact_damage::vtk)
+    // `.<name>.<pid>.<n>.tmp` (VTU/PVD files of earlier versions)
     if let Some(rest) = rest.strip_suffix(".tmp") {
         let mut parts = rest.rsplitn(3, '.');
         if let (Some(n), Some(pid), Some(target)) = (parts.next(), parts.next(), parts.next()) {
@@ -80,7 +80,7 @@ pub fn is_stale_temporary(name: &str) -> bool {
             }
         }
     }
-    // `.<name>.tmp.<pid>.<n>` (contact_input::output::write_atomic)
+    // `.<name>.tmp.<pid>.<n>` (contact_damage::atomic::write_atomic)
     let mut parts = rest.rsplitn(3, '.');
     if let (Some(n), Some(pid), Some(target)) = (parts.next(), parts.next(), parts.next()) {
         if let Some(target) = target.strip_suffix(".tmp") {
