@@ -9,8 +9,9 @@
 //! a box-constrained quadratic program.
 //!
 //! Modules, one concept each: [`mesh`], [`quadrature`], [`element`], [`space`], [`assembly`],
-//! [`linalg`], [`laws`], [`contact`], [`friction`], [`velocity`], [`obstacle`], [`damage`], [`stability`],
-//! [`gmsh`] (mesh files), [`vtk`] (ParaView output),
+//! [`linalg`], [`laws`], [`contact`], [`friction`], [`velocity`], [`obstacle`], [`damage`],
+//! [`stability`] (the step limit of the explicit terms), [`gmsh`] (mesh files), [`vtk`]
+//! (ParaView output), [`atomic`] (atomic file writing),
 //! [`scheme`].
 //!
 //! ```
@@ -54,6 +55,7 @@
 //! ```
 
 pub mod assembly;
+pub mod atomic;
 pub mod contact;
 pub mod damage;
 pub mod element;

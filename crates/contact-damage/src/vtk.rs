@@ -13,10 +13,8 @@
 //! renamed over the target, so a reader (ParaView polling a running simulation) never sees a
 //! partial file. All inputs are validated before any file is touched.
 
-use std::fs::{self, File};
-use std::io::{self, BufWriter, Write};
+use std::io::{self, Write};
 use std::path::Path;
-use std::sync::atomic::{AtomicUsize, Ordering};
 
 use crate::element::simplex_edges;
 use crate::mesh::BoundaryPart;
@@ -560,47 +558,20 @@ fn write_grid(
     writeln!(out, "</VTKFile>")
 }
 
-/// Distinguishes temporary files of concurrent writes from one process.
-static TEMPORARY_COUNTER: AtomicUsize = AtomicUsize::new(0);
-
-/// Writes a file atomically: `.<name>.<pid>.<n>.tmp` in the same directory, flushed and synced,
-/// then renamed to `path`. On failure the temporary file is removed and the error names `path`.
+/// Writes a file atomically ([`crate::atomic::write_atomic`]); the error names `path`.
 fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut dyn Write) -> io::Result<()>,
 ) -> Result<()> {
-    let file_name = path.file_name().ok_or_else(|| {
-        Error::InvalidInput(format!("cannot write {}: not a file path", path.display()))
-    })?;
-    let directory = match path.parent() {
-        Some(parent) if !parent.as_os_str().is_empty() => parent,
-        _ => Path::new("."),
-    };
-    let mut temporary_name = std::ffi::OsString::from(".");
-    temporary_name.push(file_name);
-    temporary_name.push(format!(
-        ".{}.{}.tmp",
-        std::process::id(),
-        TEMPORARY_COUNTER.fetch_add(1, Ordering::Relaxed)
-    ));
-    let temporary = directory.join(temporary_name);
-    let result = (|| {
-        let mut out = BufWriter::new(File::create(&temporary)?);
-        write(&mut out)?;
-        let file = out.into_inner().map_err(io::IntoInnerError::into_error)?;
-        file.sync_all()?;
-        fs::rename(&temporary, path)
-    })();
-    result.map_err(|error| {
-        let _ = fs::remove_file(&temporary);
-        Error::InvalidInput(format!("cannot write {}: {error}", path.display()))
-    })
+    crate::atomic::write_atomic(path, write)
+        .map_err(|error| Error::InvalidInput(format!("cannot write {}: {error}", path.display())))
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::mesh::Mesh;
+    use std::fs;
     use std::path::PathBuf;
     use std::sync::Arc;
     use BoundaryPart::*;

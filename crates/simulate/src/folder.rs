@@ -11,9 +11,9 @@
 //! - `solution.pvd`, `contact.pvd`, `state.json`, `history.csv`, `contact_history.csv`,
 //!   `contact_history.svg`;
 //! - the temporaries of the atomic writers of these files, left behind by `kill -9` or a
-//!   second Ctrl-C ([`is_stale_temporary`]): `.<name>.<pid>.<n>.tmp` (VTU/PVD files) and
-//!   `.<name>.tmp.<pid>.<n>` (the other files), `<name>` one of the names above and `<pid>`,
-//!   `<n>` decimal numbers.
+//!   second Ctrl-C ([`is_stale_temporary`]): `.<name>.tmp.<pid>.<n>` (the one writer,
+//!   `contact_damage::atomic`) and `.<name>.<pid>.<n>.tmp` (VTU/PVD files of earlier versions),
+//!   `<name>` one of the names above and `<pid>`, `<n>` decimal numbers.
 //!
 //! What each mode does in the folder:
 //!
@@ -31,8 +31,8 @@
 use crate::history::HISTORY_FILE;
 use crate::pictures::{CONTACT_HISTORY_FILE, CONTACT_HISTORY_PICTURE};
 use crate::run::STATE_FILE;
+use contact_input::InputError;
 use std::path::{Path, PathBuf};
-use verify::VerifyError;
 
 /// The fixed names of the files of a run.
 pub const FIXED_NAMES: [&str; 6] = [
@@ -71,7 +71,7 @@ pub fn is_stale_temporary(name: &str) -> bool {
     let Some(rest) = name.strip_prefix('.') else {
         return false;
     };
-    // `.<name>.<pid>.<n>.tmp` (contact_damage::vtk)
+    // `.<name>.<pid>.<n>.tmp` (VTU/PVD files of earlier versions)
     if let Some(rest) = rest.strip_suffix(".tmp") {
         let mut parts = rest.rsplitn(3, '.');
         if let (Some(n), Some(pid), Some(target)) = (parts.next(), parts.next(), parts.next()) {
@@ -80,7 +80,7 @@ pub fn is_stale_temporary(name: &str) -> bool {
             }
         }
     }
-    // `.<name>.tmp.<pid>.<n>` (verify::output::write_atomic)
+    // `.<name>.tmp.<pid>.<n>` (contact_damage::atomic::write_atomic)
     let mut parts = rest.rsplitn(3, '.');
     if let (Some(n), Some(pid), Some(target)) = (parts.next(), parts.next(), parts.next()) {
         if let Some(target) = target.strip_suffix(".tmp") {
@@ -91,15 +91,15 @@ pub fn is_stale_temporary(name: &str) -> bool {
 }
 
 /// The names in `dir` (sorted) that pass `keep`; an absent folder has none.
-fn names_in(dir: &Path, keep: impl Fn(&str) -> bool) -> Result<Vec<String>, VerifyError> {
+fn names_in(dir: &Path, keep: impl Fn(&str) -> bool) -> Result<Vec<String>, InputError> {
     let entries = match std::fs::read_dir(dir) {
         Ok(entries) => entries,
         Err(error) if error.kind() == std::io::ErrorKind::NotFound => return Ok(Vec::new()),
-        Err(error) => return Err(VerifyError::io("listing", dir, error)),
+        Err(error) => return Err(InputError::io("listing", dir, error)),
     };
     let mut names = Vec::new();
     for entry in entries {
-        let entry = entry.map_err(|e| VerifyError::io("listing", dir, e))?;
+        let entry = entry.map_err(|e| InputError::io("listing", dir, e))?;
         // a name that is no UTF-8 is none of ours
         if let Ok(name) = entry.file_name().into_string() {
             if keep(&name) {
@@ -114,9 +114,9 @@ fn names_in(dir: &Path, keep: impl Fn(&str) -> bool) -> Result<Vec<String>, Veri
 /// Checks, without touching anything, that a fresh run may write into `dir` (`what` says where
 /// the folder comes from, e.g. `--out`): the path is a folder or absent, and unless
 /// `overwrite` it holds no file of ours.
-pub fn check_fresh(dir: &Path, what: &str, overwrite: bool) -> Result<(), VerifyError> {
+pub fn check_fresh(dir: &Path, what: &str, overwrite: bool) -> Result<(), InputError> {
     if dir.exists() && !dir.is_dir() {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "output folder `{}` ({what}) exists and is not a folder; choose another --out",
             dir.display()
         )));
@@ -125,14 +125,14 @@ pub fn check_fresh(dir: &Path, what: &str, overwrite: bool) -> Result<(), Verify
         return Ok(());
     }
     if dir.join(STATE_FILE).exists() {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "{} already holds a run ({STATE_FILE}): continue it with --resume or start afresh with --overwrite",
             dir.display()
         )));
     }
     let ours = names_in(dir, |name| is_output_file(name) || is_stale_temporary(name))?;
     if let Some(first) = ours.first() {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "output folder `{}` ({what}) holds `{first}`{}, a file name this run writes, and no {STATE_FILE} of a run to continue: \
              not overwriting it; start afresh with --overwrite (which removes only such files) or choose another --out",
             dir.display(),
@@ -145,14 +145,14 @@ pub fn check_fresh(dir: &Path, what: &str, overwrite: bool) -> Result<(), Verify
     Ok(())
 }
 
-fn remove(dir: &Path, names: &[String]) -> Result<Vec<PathBuf>, VerifyError> {
+fn remove(dir: &Path, names: &[String]) -> Result<Vec<PathBuf>, InputError> {
     let mut removed = Vec::new();
     for name in names {
         let path = dir.join(name);
         match std::fs::remove_file(&path) {
             Ok(()) => removed.push(path),
             Err(error) if error.kind() == std::io::ErrorKind::NotFound => {}
-            Err(error) => return Err(VerifyError::io("removing", path, error)),
+            Err(error) => return Err(InputError::io("removing", path, error)),
         }
     }
     Ok(removed)
@@ -160,13 +160,13 @@ fn remove(dir: &Path, names: &[String]) -> Result<Vec<PathBuf>, VerifyError> {
 
 /// Removes every file of ours (outputs of earlier runs and stale temporaries) from `dir`;
 /// returns their paths. Files of other names are kept.
-pub fn remove_output(dir: &Path) -> Result<Vec<PathBuf>, VerifyError> {
+pub fn remove_output(dir: &Path) -> Result<Vec<PathBuf>, InputError> {
     let names = names_in(dir, |name| is_output_file(name) || is_stale_temporary(name))?;
     remove(dir, &names)
 }
 
 /// Removes the stale temporaries ([`is_stale_temporary`]) from `dir`; returns their paths.
-pub fn remove_stale_temporaries(dir: &Path) -> Result<Vec<PathBuf>, VerifyError> {
+pub fn remove_stale_temporaries(dir: &Path) -> Result<Vec<PathBuf>, InputError> {
     let names = names_in(dir, is_stale_temporary)?;
     remove(dir, &names)
 }

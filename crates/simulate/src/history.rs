@@ -31,12 +31,12 @@
 use crate::problem::ProblemSetup;
 use contact_damage::contact::{ContactNodes, ContactStatus};
 use contact_damage::space::{strain, LagrangeSpace, Tabulation};
+use contact_input::output::write_atomic;
+use contact_input::InputError;
 use nalgebra::SVector;
 use rayon::prelude::*;
 use std::ops::Range;
 use std::path::Path;
-use verify::output::write_atomic;
-use verify::VerifyError;
 
 /// Name of the time history.
 pub const HISTORY_FILE: &str = "history.csv";
@@ -354,11 +354,11 @@ pub fn viscous_power<const D: usize>(
 /// Keeps the header and the rows of steps 1, …, `step` of `history.csv` (rewritten
 /// atomically). Rows after them — steps done after the last saved step, possibly a line cut
 /// short by a crash — are dropped; a missing, reordered or malformed row among them is an error.
-pub fn truncate_history(path: &Path, step: usize) -> Result<(), VerifyError> {
-    let text = std::fs::read_to_string(path).map_err(|e| VerifyError::io("reading", path, e))?;
+pub fn truncate_history(path: &Path, step: usize) -> Result<(), InputError> {
+    let text = std::fs::read_to_string(path).map_err(|e| InputError::io("reading", path, e))?;
     let mut lines = text.lines();
     if lines.next() != Some(HISTORY_HEADER) {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "{}: the first line is not the history header of this version",
             path.display()
         )));
@@ -369,7 +369,7 @@ pub fn truncate_history(path: &Path, step: usize) -> Result<(), VerifyError> {
         let line = lines.next().unwrap_or("");
         let fields: Vec<&str> = line.split(',').collect();
         if fields.len() != columns || fields[0] != expected.to_string() {
-            return Err(VerifyError::InvalidInput(format!(
+            return Err(InputError::InvalidInput(format!(
                 "{}:{}: expected the complete row of step {expected}, found `{line}`",
                 path.display(),
                 expected + 1
@@ -417,7 +417,7 @@ pub(crate) mod tests {
             contact = { stiffness = 10.0, friction = 0.4 }
             damage_diffusion = 0.1
         "#;
-        let file = verify::case::parse_toml(text, "inline").unwrap();
+        let file = crate::problem::parse_problem_file(text, "inline").unwrap();
         ProblemSetup::<2>::new(file, Path::new("inline.toml")).unwrap()
     }
 

@@ -17,19 +17,19 @@ pub mod problem;
 pub mod run;
 pub mod zone;
 
+use contact_input::{FileKind, InputError};
 use std::path::Path;
-use verify::VerifyError;
 
 /// Reads the problem file at `path`, builds it in its dimension and runs it.
-pub fn run_file(path: &Path, options: &run::RunOptions) -> Result<run::RunOutcome, VerifyError> {
+pub fn run_file(path: &Path, options: &run::RunOptions) -> Result<run::RunOutcome, InputError> {
     let file = problem::read_problem_file(path)?;
     match file.dim {
         2 => run::run(&problem::ProblemSetup::<2>::new(file, path)?, options),
         3 => run::run(&problem::ProblemSetup::<3>::new(file, path)?, options),
-        other => Err(VerifyError::Case {
-            file: path.display().to_string(),
-            key: "dim".into(),
-            message: format!("must be 2 or 3, got {other}"),
-        }),
+        other => Err(FileKind::Problem.error(
+            &path.display().to_string(),
+            "dim",
+            format!("must be 2 or 3, got {other}"),
+        )),
     }
 }

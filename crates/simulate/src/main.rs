@@ -10,7 +10,6 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
-use verify::VerifyError;
 
 /// Runs Problem P (contact, friction, damage) from a TOML problem file and writes VTU/PVD
 /// files, history.csv and state.json.
@@ -41,7 +40,7 @@ struct Cli {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    if let Err(error) = verify::cli::set_threads(cli.threads) {
+    if let Err(error) = contact_input::threads::set_threads(cli.threads) {
         eprintln!("simulate: {error}");
         return ExitCode::FAILURE;
     }
@@ -87,10 +86,6 @@ fn main() -> ExitCode {
                 outcome.output_dir.display()
             );
             ExitCode::SUCCESS
-        }
-        Err(VerifyError::Case { file, key, message }) => {
-            eprintln!("simulate: problem file `{file}`, key `{key}`: {message}");
-            ExitCode::FAILURE
         }
         Err(error) => {
             eprintln!("simulate: {error}");

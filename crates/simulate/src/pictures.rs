@@ -17,10 +17,10 @@
 use contact_damage::contact::{ContactNodes, ContactStatus};
 use contact_damage::mesh::BoundaryPart;
 use contact_damage::space::LagrangeSpace;
+use contact_input::output::write_atomic;
+use contact_input::InputError;
 use plotters::prelude::*;
 use std::path::Path;
-use verify::output::write_atomic;
-use verify::VerifyError;
 
 /// Name of the per-node contact history.
 pub const CONTACT_HISTORY_FILE: &str = "contact_history.csv";
@@ -227,12 +227,12 @@ fn parse_record(line: &str) -> Option<ContactRecord> {
 }
 
 /// Reads `contact_history.csv`; a malformed row is an error naming its line.
-pub fn read_contact_history(path: &Path) -> Result<Vec<ContactRecord>, VerifyError> {
+pub fn read_contact_history(path: &Path) -> Result<Vec<ContactRecord>, InputError> {
     let text = std::fs::read_to_string(path)
-        .map_err(|e| VerifyError::io("reading contact history", path, e))?;
+        .map_err(|e| InputError::io("reading contact history", path, e))?;
     let mut lines = text.lines();
     if lines.next() != Some(CONTACT_HISTORY_HEADER) {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "{}: the first line is not the contact history header",
             path.display()
         )));
@@ -241,7 +241,7 @@ pub fn read_contact_history(path: &Path) -> Result<Vec<ContactRecord>, VerifyErr
         .enumerate()
         .map(|(index, line)| {
             parse_record(line).ok_or_else(|| {
-                VerifyError::InvalidInput(format!(
+                InputError::InvalidInput(format!(
                     "{}:{}: expected `{CONTACT_HISTORY_HEADER}`, found `{line}`",
                     path.display(),
                     index + 2
@@ -259,12 +259,12 @@ pub fn truncate_contact_history(
     path: &Path,
     recorded_steps: &[usize],
     rows_per_step: usize,
-) -> Result<(), VerifyError> {
+) -> Result<(), InputError> {
     let text = std::fs::read_to_string(path)
-        .map_err(|e| VerifyError::io("reading contact history", path, e))?;
+        .map_err(|e| InputError::io("reading contact history", path, e))?;
     let mut lines = text.lines();
     if lines.next() != Some(CONTACT_HISTORY_HEADER) {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "{}: the first line is not the contact history header",
             path.display()
         )));
@@ -274,7 +274,7 @@ pub fn truncate_contact_history(
         let expected = recorded_steps[row / rows_per_step];
         let line = lines.next().unwrap_or("");
         if parse_record(line).map(|r| r.step) != Some(expected) {
-            return Err(VerifyError::InvalidInput(format!(
+            return Err(InputError::InvalidInput(format!(
                 "{}:{}: expected a complete row of step {expected}, found `{line}`",
                 path.display(),
                 row + 2
@@ -286,8 +286,8 @@ pub fn truncate_contact_history(
     write_atomic(path, kept.as_bytes())
 }
 
-fn plot_error(path: &Path) -> impl Fn(&dyn std::fmt::Display) -> VerifyError + '_ {
-    move |error| VerifyError::Plot {
+fn plot_error(path: &Path) -> impl Fn(&dyn std::fmt::Display) -> InputError + '_ {
+    move |error| InputError::Plot {
         path: path.to_path_buf(),
         message: error.to_string(),
     }
@@ -318,7 +318,7 @@ pub fn damage_svg<const D: usize>(
     damage: &[f64],
     step: usize,
     time: f64,
-) -> Result<(), VerifyError> {
+) -> Result<(), InputError> {
     let mesh = space.mesh();
     // polygons (projected vertex coordinates) and their mean β
     let mut polygons: Vec<(Vec<(f64, f64)>, f64)> = Vec::new();
@@ -345,7 +345,7 @@ pub fn damage_svg<const D: usize>(
             .flat_map(|&f| mesh.facet(f).iter().map(|&v| mesh.vertex(v)))
             .collect();
         if points.is_empty() {
-            return Err(VerifyError::InvalidInput(
+            return Err(InputError::InvalidInput(
                 "the damage picture of a 3D run needs a contact face Γ3, and it is empty".into(),
             ));
         }
@@ -458,9 +458,9 @@ pub fn contact_history_svg(
     records: &[ContactRecord],
     coordinate_label: &str,
     pressure_steps: &[usize],
-) -> Result<(), VerifyError> {
+) -> Result<(), InputError> {
     if records.is_empty() {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "{}: no contact history to draw (no contact node or no step)",
             path.display()
         )));
@@ -478,7 +478,7 @@ pub fn contact_history_svg(
                 .zip(&coordinates)
                 .any(|(r, s)| r.coordinate != *s)
     }) {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "{}: step {} has other contact nodes than step {}",
             path.display(),
             rows[0].step,

@@ -43,19 +43,22 @@
 //!
 //! Box sides not listed are traction sides (Γ2). The traction may use the outward normal
 //! (nx, ny, nz) to act on part of Γ2 only, e.g. `max(0, ny)` selects the top of a box.
-//! Every error names the file, the key and the problem ([`VerifyError::Case`]).
+//! Every error names the file, the key and the problem ([`InputError::File`] of kind [`FileKind::Problem`]).
 
 use contact_damage::gmsh::{read_msh, GroupRef, PhysicalMap};
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::{Data, Model, Problem, SchemeSettings};
+use contact_input::expr::Expr;
+use contact_input::file::{parse_expr, parse_toml};
+use contact_input::laws::LawsFile;
+use contact_input::scheme::SchemeFile;
+use contact_input::sides::parse_sides;
+use contact_input::{FileKind, InputError};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use verify::case::{parse_sides, parse_toml, LawsFile, SchemeFile};
-use verify::expr::Expr;
-use verify::VerifyError;
 
 /// Variables of the body force: position and time.
 pub const FIELD_VARIABLES: [&str; 4] = ["x", "y", "z", "t"];
@@ -221,7 +224,7 @@ pub const LOOSEST_TOLERANCE: f64 = 1e-6;
 
 impl SolverFile {
     /// The solver settings: the defaults with the entries of the file, each checked.
-    pub fn settings(&self, origin: &str) -> Result<SchemeSettings, VerifyError> {
+    pub fn settings(&self, origin: &str) -> Result<SchemeSettings, InputError> {
         let mut settings = SchemeSettings::default();
         let tolerance = |key: &str, value: Option<f64>, target: &mut f64| {
             if let Some(value) = value {
@@ -359,31 +362,20 @@ pub fn mesh_fingerprint<const D: usize>(mesh: &Mesh<D>) -> String {
         .collect()
 }
 
-fn problem_error(origin: &str, key: &str, message: impl Into<String>) -> VerifyError {
-    VerifyError::Case {
-        file: origin.to_string(),
-        key: key.to_string(),
-        message: message.into(),
-    }
+fn problem_error(origin: &str, key: &str, message: impl Into<String>) -> InputError {
+    FileKind::Problem.error(origin, key, message)
 }
 
 /// Reads and parses a problem file (TOML errors carry line and column).
-pub fn read_problem_file(path: &Path) -> Result<ProblemFile, VerifyError> {
+pub fn read_problem_file(path: &Path) -> Result<ProblemFile, InputError> {
     let text = std::fs::read_to_string(path)
-        .map_err(|e| VerifyError::io("reading problem file", path, e))?;
-    parse_toml(&text, &path.display().to_string())
+        .map_err(|e| InputError::io("reading problem file", path, e))?;
+    parse_problem_file(&text, &path.display().to_string())
 }
 
-/// An expression of the problem file with the variables it is evaluated on.
-fn parse_expr(
-    origin: &str,
-    key: &str,
-    source: &str,
-    variables: &[&str],
-    constants: &BTreeMap<String, f64>,
-) -> Result<Expr, VerifyError> {
-    Expr::parse(source, variables, constants)
-        .map_err(|e| problem_error(origin, key, format!("`{source}`: {e}")))
+/// Parses problem-file text; `origin` names it in errors.
+pub fn parse_problem_file(text: &str, origin: &str) -> Result<ProblemFile, InputError> {
+    parse_toml(text, FileKind::Problem, origin)
 }
 
 /// D expressions of a vector field.
@@ -393,7 +385,7 @@ fn parse_vector<const D: usize>(
     sources: &[String],
     variables: &[&str],
     constants: &BTreeMap<String, f64>,
-) -> Result<[Expr; D], VerifyError> {
+) -> Result<[Expr; D], InputError> {
     if sources.len() != D {
         return Err(problem_error(
             origin,
@@ -404,7 +396,16 @@ fn parse_vector<const D: usize>(
     let parsed: Vec<Expr> = sources
         .iter()
         .enumerate()
-        .map(|(i, s)| parse_expr(origin, &format!("{key}[{i}]"), s, variables, constants))
+        .map(|(i, s)| {
+            parse_expr(
+                FileKind::Problem,
+                origin,
+                &format!("{key}[{i}]"),
+                s,
+                variables,
+                constants,
+            )
+        })
         .collect::<Result<_, _>>()?;
     Ok(parsed
         .try_into()
@@ -435,7 +436,7 @@ fn groups(list: &[GroupFile]) -> Vec<GroupRef> {
 
 impl<const D: usize> ProblemSetup<D> {
     /// Reads, validates and builds the problem of the file at `path`.
-    pub fn from_path(path: &Path) -> Result<Self, VerifyError> {
+    pub fn from_path(path: &Path) -> Result<Self, InputError> {
         let file = read_problem_file(path)?;
         Self::new(file, path)
     }
@@ -443,7 +444,7 @@ impl<const D: usize> ProblemSetup<D> {
     /// Validates the file and builds the problem; `path` names the file in errors and locates
     /// the Gmsh mesh. Loads are checked for finite values at the mesh vertices (f0) and at the
     /// vertices of Γ2 (f2) at t = 0, T/2, T.
-    pub fn new(file: ProblemFile, path: &Path) -> Result<Self, VerifyError> {
+    pub fn new(file: ProblemFile, path: &Path) -> Result<Self, InputError> {
         let origin = path.display().to_string();
         let origin = origin.as_str();
         if file.dim != D {
@@ -549,7 +550,7 @@ impl<const D: usize> ProblemSetup<D> {
             );
         }
         let constants = &file.constants;
-        let laws = file.laws.build::<D>(origin, constants)?;
+        let laws = file.laws.build::<D>(FileKind::Problem, origin, constants)?;
 
         let loads = &file.loads;
         let body_force = loads
@@ -571,6 +572,7 @@ impl<const D: usize> ProblemSetup<D> {
             constants,
         )?;
         let gap = parse_expr(
+            FileKind::Problem,
             origin,
             "loads.gap",
             loads.gap.as_deref().unwrap_or("0"),
@@ -578,6 +580,7 @@ impl<const D: usize> ProblemSetup<D> {
             constants,
         )?;
         let initial_damage = parse_expr(
+            FileKind::Problem,
             origin,
             "loads.initial_damage",
             loads.initial_damage.as_deref().unwrap_or("1"),
@@ -676,10 +679,10 @@ impl<const D: usize> ProblemSetup<D> {
         })
     }
 
-    fn mesh(file: &ProblemFile, path: &Path, origin: &str) -> Result<Mesh<D>, VerifyError> {
+    fn mesh(file: &ProblemFile, path: &Path, origin: &str) -> Result<Mesh<D>, InputError> {
         match (&file.mesh.box_mesh, &file.mesh.gmsh) {
             (Some(box_file), None) => {
-                let coordinates = |key: &str, values: &[f64]| -> Result<[f64; D], VerifyError> {
+                let coordinates = |key: &str, values: &[f64]| -> Result<[f64; D], InputError> {
                     if values.len() != D || values.iter().any(|v| !v.is_finite()) {
                         return Err(problem_error(
                             origin,
@@ -699,7 +702,8 @@ impl<const D: usize> ProblemSetup<D> {
                     ));
                 }
                 let cells = std::array::from_fn(|i| box_file.cells[i]);
-                let sides = parse_sides::<D>(origin, "mesh.box.sides", &box_file.sides)?;
+                let sides =
+                    parse_sides::<D>(FileKind::Problem, origin, "mesh.box.sides", &box_file.sides)?;
                 Mesh::box_mesh(lower, upper, cells, sides)
                     .map_err(|e| problem_error(origin, "mesh.box", e.to_string()))
             }

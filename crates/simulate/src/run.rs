@@ -44,6 +44,8 @@ use contact_damage::scheme::{ContactTreatment, Simulation, State};
 use contact_damage::space::{strain, LagrangeSpace, Tabulation};
 use contact_damage::stability::StepLimit;
 use contact_damage::vtk::{write_boundary_vtu, write_pvd, write_vtu, CellData, PointData};
+use contact_input::output::{write_atomic, write_json_atomic};
+use contact_input::InputError;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fs::OpenOptions;
@@ -52,8 +54,6 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
-use verify::output::{write_atomic, write_json_atomic};
-use verify::VerifyError;
 
 /// Name of the restart file.
 pub const STATE_FILE: &str = "state.json";
@@ -170,17 +170,17 @@ pub fn cell_stress<const D: usize>(
     stress
 }
 
-fn io_error(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> VerifyError {
+fn io_error(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> InputError {
     let path = path.to_path_buf();
-    move |e| VerifyError::io(action, path, e)
+    move |e| InputError::io(action, path, e)
 }
 
 /// Checks the values of a saved state as strictly as an input file: fields of the right
 /// lengths, finite, β_n ∈ [0, 1] (the scheme's 𝒦^h), nonnegative running sums and slips, and
 /// saved steps strictly increasing. The error names the file, the field and the first bad entry.
-fn check_saved_values<const D: usize>(saved: &SavedState, path: &Path) -> Result<(), VerifyError> {
+fn check_saved_values<const D: usize>(saved: &SavedState, path: &Path) -> Result<(), InputError> {
     let bad = |field: &str, detail: String| {
-        VerifyError::InvalidInput(format!("{}: `{field}` {detail}", path.display()))
+        InputError::InvalidInput(format!("{}: `{field}` {detail}", path.display()))
     };
     for (field, values, length) in [
         ("displacement", &saved.displacement, saved.nodes * D),
@@ -238,11 +238,11 @@ fn check_saved_values<const D: usize>(saved: &SavedState, path: &Path) -> Result
 }
 
 /// Reads `state.json` of a folder.
-pub fn read_saved_state(dir: &Path) -> Result<SavedState, VerifyError> {
+pub fn read_saved_state(dir: &Path) -> Result<SavedState, InputError> {
     let path = dir.join(STATE_FILE);
     let text = std::fs::read_to_string(&path).map_err(io_error("reading saved state", &path))?;
     serde_json::from_str(&text)
-        .map_err(|e| VerifyError::InvalidInput(format!("{}: {e}", path.display())))
+        .map_err(|e| InputError::InvalidInput(format!("{}: {e}", path.display())))
 }
 
 /// Whether step n has rows in `contact_history.csv`: every `output.every` steps and the last
@@ -258,7 +258,7 @@ fn records_contact_history(n: usize, every: usize, steps: usize) -> bool {
 fn check_step_limit<const D: usize>(
     setup: &ProblemSetup<D>,
     simulation: &Simulation<D>,
-) -> Result<StepLimit, VerifyError> {
+) -> Result<StepLimit, InputError> {
     let limit = simulation.step_limit()?;
     let step = simulation.time_step();
     if step <= limit.time_step {
@@ -279,7 +279,7 @@ fn check_step_limit<const D: usize>(
             format!("raise `steps` to at least {needed} (or the viscosity against the elasticity)"),
         )
     };
-    Err(VerifyError::InvalidInput(format!(
+    Err(InputError::InvalidInput(format!(
         "{}: the time step k = final_time/steps = {final_time}/{} = {step:e} exceeds the stability limit k_max = {:.3e} of the explicit terms of (5.1) ({terms} at u_(n−1); λ_max(H⁻¹B) = {:.3e} by {} power iterations): the run would oscillate or blow up; {remedy}",
         setup.origin,
         simulation.steps(),
@@ -293,7 +293,7 @@ fn check_step_limit<const D: usize>(
 pub fn run<const D: usize>(
     setup: &ProblemSetup<D>,
     options: &RunOptions,
-) -> Result<RunOutcome, VerifyError> {
+) -> Result<RunOutcome, InputError> {
     let dir = options
         .out
         .clone()
@@ -316,7 +316,7 @@ pub fn run<const D: usize>(
     let contact_history_path = dir.join(CONTACT_HISTORY_FILE);
     let contact_line = ContactLine::new(&space, &contact);
     let pictures = picture_steps(&setup.pictures, simulation.time_step(), steps);
-    let invalid = |message: String| VerifyError::InvalidInput(message);
+    let invalid = |message: String| InputError::InvalidInput(message);
 
     let mut saved_steps = Vec::new();
     let mut sums = RunningSums::new(contact.len());
@@ -507,7 +507,7 @@ pub fn run<const D: usize>(
             contact_line.axis,
         );
         if let Some((low, high)) = force_cycle.push(on_contact.normal_force) {
-            return Err(VerifyError::InvalidInput(format!(
+            return Err(InputError::InvalidInput(format!(
                 "{}: the total normal contact force cycles with period two between {low:.6e} and {high:.6e} over steps {}..={n}, although every step is solved exactly: the step k = {:e} is above the stability limit of the explicit normal compliance for the contact state reached (the estimate at the start was {:.3e}); raise `steps` or use `[scheme] contact = \"implicit\"`",
                 setup.origin,
                 n + 1 - CYCLE_WINDOW_STEPS,

@@ -7,28 +7,25 @@
 use crate::expr::Expr;
 use crate::manufactured::{value, ExactSolution, Laws};
 use crate::VerifyError;
-use contact_damage::laws::{
-    DamageModuli, DamageSource, DamagedHooke, Elasticity, InvariantJet, InvariantPotential,
-    LinearViscosity, ModuliElasticity, NormalComplianceCoulomb, PotentialViscosity,
-    SaturatingViscosity, Tensor, TruncatedFremond, Viscosity,
-};
 use contact_damage::mesh::{BoundaryPart, Mesh};
-use contact_damage::scheme::{ContactTreatment, Data, Model, Problem, SchemeSettings};
-use nalgebra::SVector;
-use num_dual::{Dual2SVec64, Dual64};
-use serde::{Deserialize, Serialize};
+use contact_damage::scheme::{Data, Problem, SchemeSettings};
+use contact_input::file::{parse_expr, parse_toml, positive};
+use contact_input::FileKind;
+use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
 
+pub use contact_input::laws::{
+    ContactFile, DamageSourceFile, ElasticityFile, ExpressionDamageSource, ExpressionModuli,
+    ExpressionPotential, LawsFile, ViscosityFile, MODULI_VARIABLES, POTENTIAL_VARIABLES,
+    SOURCE_VARIABLES,
+};
+pub use contact_input::scheme::{ContactTreatmentFile, SchemeFile};
+pub use contact_input::sides::parse_sides;
+
 /// The variables of the exact-field expressions.
 pub const FIELD_VARIABLES: [&str; 4] = ["x", "y", "z", "t"];
-/// The variables of a damage-source expression.
-pub const SOURCE_VARIABLES: [&str; 3] = ["beta", "tr_eps", "eps_eps"];
-/// The variables of a viscosity potential: the invariants tr ε and |ε_D| of the strain rate.
-pub const POTENTIAL_VARIABLES: [&str; 2] = ["tr_eps", "dev_norm"];
-/// The variable of the damage-dependent elastic moduli.
-pub const MODULI_VARIABLES: [&str; 1] = ["beta"];
 
 /// The case file, as written in TOML.
 #[derive(Debug, Clone, Deserialize)]
@@ -60,38 +57,6 @@ pub struct CaseFile {
     pub scheme: SchemeFile,
 }
 
-/// `[scheme]` of case and problem files.
-#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(deny_unknown_fields)]
-pub struct SchemeFile {
-    /// `contact = "explicit"` (default: p_ν at u_{n−1}, the paper's (5.1)) or `"implicit"`
-    /// (p_ν at u_n = u_{n−1} + k v_n: stiff contact at any step; the friction bound stays at
-    /// u_{n−1}).
-    #[serde(default)]
-    pub contact: ContactTreatmentFile,
-}
-
-/// The values of `scheme.contact`.
-#[derive(Debug, Clone, Copy, Default, Deserialize, Serialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum ContactTreatmentFile {
-    /// p_ν at u_{n−1} (5.1).
-    #[default]
-    Explicit,
-    /// p_ν at u_{n−1} + k v_n.
-    Implicit,
-}
-
-impl SchemeFile {
-    /// The solver's setting.
-    pub fn contact_treatment(&self) -> ContactTreatment {
-        match self.contact {
-            ContactTreatmentFile::Explicit => ContactTreatment::Explicit,
-            ContactTreatmentFile::Implicit => ContactTreatment::Implicit,
-        }
-    }
-}
-
 /// `[domain]`: a box with a boundary part for each side.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -103,86 +68,6 @@ pub struct DomainFile {
     /// Side name (`x_min`, `x_max`, `y_min`, `y_max`, `z_min`, `z_max`) → `clamped` (Γ1),
     /// `traction` (Γ2) or `contact` (Γ3).
     pub sides: BTreeMap<String, String>,
-}
-
-/// `[laws]`.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct LawsFile {
-    /// 𝒜.
-    pub viscosity: ViscosityFile,
-    /// G.
-    pub elasticity: ElasticityFile,
-    /// φ.
-    pub damage_source: DamageSourceFile,
-    /// p_ν, p_τ.
-    pub contact: ContactFile,
-    /// κ.
-    pub damage_diffusion: f64,
-}
-
-/// Viscosity laws.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum ViscosityFile {
-    /// 𝒜ε = 2ηε + ζ tr(ε) I.
-    Linear { shear: f64, bulk: f64 },
-    /// Linear plus a saturating deviatoric part.
-    Saturating {
-        shear: f64,
-        bulk: f64,
-        extra_shear: f64,
-        rate_scale: f64,
-    },
-    /// 𝒜 = ∂Φ/∂ε for a convex potential Φ written as an expression in `tr_eps` = tr ε and
-    /// `dev_norm` = |ε_D| ([`PotentialViscosity`]; derivatives by automatic differentiation,
-    /// checked for (3.4) at sampled strain rates when the file is loaded).
-    Potential { potential: String },
-}
-
-/// Elasticity laws.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum ElasticityFile {
-    /// G = β(2με + λ tr(ε) I).
-    DamagedHooke {
-        shear_modulus: f64,
-        lame_lambda: f64,
-    },
-    /// G = 2μ(β) ε + λ(β) tr(ε) I with μ, λ expressions in `beta` ([`ModuliElasticity`];
-    /// β clamped to [0, 1], derivatives by automatic differentiation).
-    Moduli {
-        shear_modulus: String,
-        lame_lambda: String,
-    },
-}
-
-/// Damage sources.
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
-pub enum DamageSourceFile {
-    /// The truncated Frémond source.
-    Fremond {
-        lambda_d: f64,
-        lambda_w: f64,
-        damage_floor: f64,
-        strain_energy_cap: f64,
-    },
-    /// φ as an expression in `beta`, `tr_eps`, `eps_eps`.
-    Expression { expr: String },
-}
-
-/// Normal compliance with Coulomb friction (2.10)–(2.12).
-#[derive(Debug, Clone, Deserialize, Serialize)]
-#[serde(deny_unknown_fields)]
-pub struct ContactFile {
-    /// c_ν.
-    pub stiffness: f64,
-    /// μ.
-    pub friction: f64,
-    /// δ.
-    #[serde(default)]
-    pub wear: f64,
 }
 
 /// `[exact]`: the manufactured fields.
@@ -238,251 +123,6 @@ pub struct TimeStudy {
     pub reference_steps: usize,
 }
 
-/// Parses box sides (`x_min`, `x_max`, `y_min`, `y_max`, `z_min`, `z_max` → `clamped` (Γ1),
-/// `traction` (Γ2) or `contact` (Γ3)); sides not listed are traction sides. Errors name
-/// `origin` and the key `key_prefix.SIDE`.
-pub fn parse_sides<const D: usize>(
-    origin: &str,
-    key_prefix: &str,
-    sides_file: &BTreeMap<String, String>,
-) -> Result<[[BoundaryPart; 2]; D], VerifyError> {
-    let axes = ["x", "y", "z"];
-    let mut sides = [[BoundaryPart::Neumann; 2]; D];
-    for (key, part) in sides_file {
-        let (axis, end) = match key.split_once('_') {
-            Some((a, e)) => (axes.iter().position(|n| *n == a), e),
-            None => (None, ""),
-        };
-        let side = match end {
-            "min" => Some(0),
-            "max" => Some(1),
-            _ => None,
-        };
-        let (Some(axis), Some(side)) = (axis.filter(|&a| a < D), side) else {
-            return Err(case_error(
-                origin,
-                &format!("{key_prefix}.{key}"),
-                "unknown side (use x_min, x_max, y_min, y_max[, z_min, z_max])",
-            ));
-        };
-        sides[axis][side] = match part.as_str() {
-            "clamped" => BoundaryPart::Dirichlet,
-            "traction" => BoundaryPart::Neumann,
-            "contact" => BoundaryPart::Contact,
-            other => {
-                return Err(case_error(
-                    origin,
-                    &format!("{key_prefix}.{key}"),
-                    format!("unknown part `{other}` (use clamped, traction or contact)"),
-                ))
-            }
-        };
-    }
-    Ok(sides)
-}
-
-impl LawsFile {
-    /// Builds and validates the laws in dimension D: expressions are parsed with the given
-    /// `constants` and the variables [`SOURCE_VARIABLES`] (damage source),
-    /// [`POTENTIAL_VARIABLES`] (viscosity potential) or [`MODULI_VARIABLES`] (elastic moduli);
-    /// every law is validated (a viscosity potential and elastic moduli by the sampling checks of
-    /// [`PotentialViscosity`] and [`ModuliElasticity`]) and κ must be positive. Errors name
-    /// `origin` and the key under `laws` (e.g. `laws.viscosity.potential`, with the expression).
-    pub fn build<const D: usize>(
-        &self,
-        origin: &str,
-        constants: &BTreeMap<String, f64>,
-    ) -> Result<Laws<D>, VerifyError> {
-        let laws_file = self;
-        let viscosity: Arc<dyn Viscosity<D>> = match &laws_file.viscosity {
-            &ViscosityFile::Linear { shear, bulk } => Arc::new(LinearViscosity { shear, bulk }),
-            &ViscosityFile::Saturating {
-                shear,
-                bulk,
-                extra_shear,
-                rate_scale,
-            } => Arc::new(SaturatingViscosity {
-                linear: LinearViscosity { shear, bulk },
-                extra_shear,
-                rate_scale,
-            }),
-            ViscosityFile::Potential { potential } => {
-                Arc::new(PotentialViscosity::new(Arc::new(ExpressionPotential {
-                    expr: parse_expr(
-                        origin,
-                        "laws.viscosity.potential",
-                        potential,
-                        &POTENTIAL_VARIABLES,
-                        constants,
-                    )?,
-                })))
-            }
-        };
-        let elasticity: Arc<dyn Elasticity<D>> = match &laws_file.elasticity {
-            &ElasticityFile::DamagedHooke {
-                shear_modulus,
-                lame_lambda,
-            } => Arc::new(DamagedHooke {
-                shear_modulus,
-                lame_lambda,
-            }),
-            ElasticityFile::Moduli {
-                shear_modulus,
-                lame_lambda,
-            } => Arc::new(ModuliElasticity {
-                moduli: Arc::new(ExpressionModuli {
-                    shear_modulus: parse_expr(
-                        origin,
-                        "laws.elasticity.shear_modulus",
-                        shear_modulus,
-                        &MODULI_VARIABLES,
-                        constants,
-                    )?,
-                    lame_lambda: parse_expr(
-                        origin,
-                        "laws.elasticity.lame_lambda",
-                        lame_lambda,
-                        &MODULI_VARIABLES,
-                        constants,
-                    )?,
-                }),
-            }),
-        };
-        let damage_source: Arc<dyn DamageSource<D>> = match &laws_file.damage_source {
-            DamageSourceFile::Fremond {
-                lambda_d,
-                lambda_w,
-                damage_floor,
-                strain_energy_cap,
-            } => Arc::new(TruncatedFremond {
-                lambda_d: *lambda_d,
-                lambda_w: *lambda_w,
-                damage_floor: *damage_floor,
-                strain_energy_cap: *strain_energy_cap,
-            }),
-            DamageSourceFile::Expression { expr } => Arc::new(ExpressionDamageSource {
-                expr: parse_expr(
-                    origin,
-                    "laws.damage_source.expr",
-                    expr,
-                    &SOURCE_VARIABLES,
-                    constants,
-                )?,
-            }),
-        };
-        let contact = Arc::new(NormalComplianceCoulomb {
-            stiffness: laws_file.contact.stiffness,
-            friction: laws_file.contact.friction,
-            wear: laws_file.contact.wear,
-        });
-        let laws = Model {
-            viscosity,
-            elasticity,
-            damage_source,
-            contact,
-            damage_diffusion: laws_file.damage_diffusion,
-        };
-        let law_error = |e: contact_damage::Error| self.law_error(origin, e);
-        laws.viscosity.validate().map_err(law_error)?;
-        laws.elasticity.validate().map_err(law_error)?;
-        laws.damage_source.validate().map_err(law_error)?;
-        laws.contact.validate().map_err(law_error)?;
-        positive(origin, "laws.damage_diffusion", laws.damage_diffusion)?;
-        Ok(laws)
-    }
-}
-
-impl LawsFile {
-    /// A law's validation error as a case error: the key is `laws.` followed by the parameter
-    /// the law names (`laws` when it names none), and the message starts with the expression
-    /// when the parameter is one.
-    fn law_error(&self, origin: &str, error: contact_damage::Error) -> VerifyError {
-        let name = match &error {
-            contact_damage::Error::InvalidParameter { name, .. } => Some(name.as_str()),
-            _ => None,
-        };
-        // the leading key-like part of the name (`damage_source(0, β)` → `damage_source`)
-        let path = name.map_or("", |name| {
-            let end = name
-                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '.'))
-                .unwrap_or(name.len());
-            name[..end].trim_matches('.')
-        });
-        let key = if path.is_empty() || path == "laws" {
-            "laws".to_string()
-        } else if path.starts_with("laws.") {
-            path.to_string()
-        } else {
-            format!("laws.{path}")
-        };
-        let expression = match (key.as_str(), &self.viscosity, &self.elasticity) {
-            ("laws.viscosity.potential", ViscosityFile::Potential { potential }, _) => {
-                Some(potential)
-            }
-            ("laws.elasticity.shear_modulus", _, ElasticityFile::Moduli { shear_modulus, .. }) => {
-                Some(shear_modulus)
-            }
-            ("laws.elasticity.lame_lambda", _, ElasticityFile::Moduli { lame_lambda, .. }) => {
-                Some(lame_lambda)
-            }
-            _ => None,
-        };
-        match expression {
-            Some(source) => case_error(origin, &key, format!("`{source}`: {error}")),
-            None => case_error(origin, &key, error.to_string()),
-        }
-    }
-}
-
-/// A viscosity potential Φ(tr ε, |ε_D|) given by an expression in [`POTENTIAL_VARIABLES`]; Φ and
-/// its first and second derivatives by second-order dual numbers (num-dual).
-pub struct ExpressionPotential {
-    expr: Expr,
-}
-
-impl InvariantPotential for ExpressionPotential {
-    fn value(&self, trace: f64, dev_norm: f64) -> f64 {
-        self.expr.eval_f64(&[trace, dev_norm])
-    }
-
-    fn jet(&self, trace: f64, dev_norm: f64) -> InvariantJet {
-        let (value, gradient, hessian) = num_dual::hessian(
-            |v: SVector<Dual2SVec64<2>, 2>| self.expr.eval(&[v[0], v[1]]),
-            &SVector::from([trace, dev_norm]),
-        );
-        InvariantJet {
-            value,
-            gradient: [gradient[0], gradient[1]],
-            hessian: [
-                [hessian[(0, 0)], hessian[(0, 1)]],
-                [hessian[(1, 0)], hessian[(1, 1)]],
-            ],
-        }
-    }
-}
-
-/// Elastic moduli μ(β), λ(β) given by expressions in [`MODULI_VARIABLES`]; derivatives by dual
-/// numbers (num-dual).
-pub struct ExpressionModuli {
-    shear_modulus: Expr,
-    lame_lambda: Expr,
-}
-
-fn value_and_slope(expr: &Expr, beta: f64) -> (f64, f64) {
-    let result = expr.eval(&[Dual64::new(beta, 1.0)]);
-    (result.re, result.eps)
-}
-
-impl DamageModuli for ExpressionModuli {
-    fn shear_modulus(&self, damage: f64) -> (f64, f64) {
-        value_and_slope(&self.shear_modulus, damage)
-    }
-
-    fn lame_lambda(&self, damage: f64) -> (f64, f64) {
-        value_and_slope(&self.lame_lambda, damage)
-    }
-}
-
 /// A validated case in dimension D.
 #[derive(Clone)]
 pub struct Case<const D: usize> {
@@ -496,31 +136,6 @@ pub struct Case<const D: usize> {
     pub laws: Laws<D>,
     /// Exact fields.
     pub exact: ExactSolution<D>,
-}
-
-/// A damage source given by an expression in β, tr ε and ε:ε.
-pub struct ExpressionDamageSource {
-    expr: Expr,
-}
-
-impl<const D: usize> DamageSource<D> for ExpressionDamageSource {
-    fn source(&self, strain: &Tensor<D>, damage: f64) -> f64 {
-        self.expr
-            .eval_f64(&[damage, strain.trace(), strain.norm_squared()])
-    }
-    fn validate(&self) -> contact_damage::Result<()> {
-        for beta in [0.0, 0.5, 1.0] {
-            let v = self.expr.eval_f64(&[beta, 0.0, 0.0]);
-            if !v.is_finite() {
-                return Err(contact_damage::Error::parameter(
-                    "laws.damage_source.expr at ε = 0",
-                    beta,
-                    "the damage source expression is not finite",
-                ));
-            }
-        }
-        Ok(())
-    }
 }
 
 /// Checks the study definitions before anything runs: keys `order1`/`order2`; level studies with
@@ -605,11 +220,7 @@ fn check_studies(origin: &str, studies: &BTreeMap<String, StudySet>) -> Result<(
 }
 
 fn case_error(origin: &str, key: &str, message: impl Into<String>) -> VerifyError {
-    VerifyError::Case {
-        file: origin.to_string(),
-        key: key.to_string(),
-        message: message.into(),
-    }
+    FileKind::Case.error(origin, key, message)
 }
 
 /// Reads and parses a case file (TOML syntax errors carry line and column).
@@ -621,54 +232,7 @@ pub fn read_case_file(path: &Path) -> Result<CaseFile, VerifyError> {
 
 /// Parses case-file text; `origin` names it in errors.
 pub fn parse_case_file(text: &str, origin: &str) -> Result<CaseFile, VerifyError> {
-    parse_toml(text, origin)
-}
-
-/// Parses TOML text into `T`; a syntax error or a missing, unknown or mistyped key is a
-/// [`VerifyError::Case`] naming `origin`, the line and column, and the problem.
-pub fn parse_toml<T: serde::de::DeserializeOwned>(
-    text: &str,
-    origin: &str,
-) -> Result<T, VerifyError> {
-    toml::from_str::<T>(text).map_err(|e| {
-        let (line, column) = e
-            .span()
-            .map(|span| {
-                let before = &text[..span.start.min(text.len())];
-                let line = before.matches('\n').count() + 1;
-                let column = before.len() - before.rfind('\n').map_or(0, |p| p + 1) + 1;
-                (line, column)
-            })
-            .unwrap_or((0, 0));
-        case_error(
-            origin,
-            &format!("line {line}, column {column}"),
-            e.message().to_string(),
-        )
-    })
-}
-
-fn parse_expr(
-    origin: &str,
-    key: &str,
-    source: &str,
-    variables: &[&str],
-    constants: &BTreeMap<String, f64>,
-) -> Result<Expr, VerifyError> {
-    Expr::parse(source, variables, constants)
-        .map_err(|e| case_error(origin, key, format!("`{source}`: {e}")))
-}
-
-fn positive(origin: &str, key: &str, value: f64) -> Result<(), VerifyError> {
-    if value.is_finite() && value > 0.0 {
-        Ok(())
-    } else {
-        Err(case_error(
-            origin,
-            key,
-            format!("must be a positive number, got {value}"),
-        ))
-    }
+    parse_toml(text, FileKind::Case, origin)
 }
 
 impl<const D: usize> Case<D> {
@@ -682,7 +246,7 @@ impl<const D: usize> Case<D> {
                 format!("expected {D}, got {}", file.dim),
             ));
         }
-        positive(origin, "final_time", file.final_time)?;
+        positive(FileKind::Case, origin, "final_time", file.final_time)?;
         check_studies(origin, &file.studies)?;
         if file.domain.lower.len() != D || file.domain.upper.len() != D {
             return Err(case_error(
@@ -691,9 +255,9 @@ impl<const D: usize> Case<D> {
                 format!("need {D} coordinates each"),
             ));
         }
-        let sides = parse_sides::<D>(origin, "domain.sides", &file.domain.sides)?;
+        let sides = parse_sides::<D>(FileKind::Case, origin, "domain.sides", &file.domain.sides)?;
         let constants = &file.constants;
-        let laws = file.laws.build::<D>(origin, constants)?;
+        let laws = file.laws.build::<D>(FileKind::Case, origin, constants)?;
 
         let exact_file = &file.exact;
         if exact_file.u.len() != D {
@@ -709,6 +273,7 @@ impl<const D: usize> Case<D> {
                 .enumerate()
                 .map(|(i, s)| {
                     parse_expr(
+                        FileKind::Case,
                         origin,
                         &format!("{key}[{i}]"),
                         s,
@@ -725,6 +290,7 @@ impl<const D: usize> Case<D> {
         let exact = ExactSolution {
             displacement: vector("exact.u", &exact_file.u)?,
             damage: parse_expr(
+                FileKind::Case,
                 origin,
                 "exact.beta",
                 &exact_file.beta,
@@ -736,6 +302,7 @@ impl<const D: usize> Case<D> {
                 exact_file.stick_traction.as_ref().unwrap_or(&zero()),
             )?,
             damage_multiplier: parse_expr(
+                FileKind::Case,
                 origin,
                 "exact.damage_multiplier",
                 exact_file.damage_multiplier.as_deref().unwrap_or("0"),
@@ -743,6 +310,7 @@ impl<const D: usize> Case<D> {
                 constants,
             )?,
             gap: parse_expr(
+                FileKind::Case,
                 origin,
                 "exact.gap",
                 exact_file.gap.as_deref().unwrap_or("0"),
@@ -937,6 +505,9 @@ impl<const D: usize> Case<D> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use contact_damage::laws::{
+        LinearViscosity, PotentialViscosity, SaturatingViscosity, Tensor, Viscosity,
+    };
 
     const SLIP2D: &str = include_str!("../../../verification/slip2d.toml");
     const SLIP3D: &str = include_str!("../../../verification/slip3d.toml");
@@ -1051,9 +622,9 @@ mod tests {
 
     fn expression_matches_saturating<const D: usize>() {
         let constants = BTreeMap::new();
-        let ours = PotentialViscosity::new(Arc::new(ExpressionPotential {
-            expr: Expr::parse(&saturating_potential(D), &POTENTIAL_VARIABLES, &constants).unwrap(),
-        }));
+        let ours = PotentialViscosity::new(Arc::new(ExpressionPotential::new(
+            Expr::parse(&saturating_potential(D), &POTENTIAL_VARIABLES, &constants).unwrap(),
+        )));
         let theirs = SaturatingViscosity {
             linear: LinearViscosity {
                 shear: 1.0,
@@ -1287,14 +858,14 @@ mod tests {
             // Φ = |ε_D|² + 0.5 tr² + 0.3 (√(1 + |ε_D|² + tr²) − 1), coupled in (t, n):
             // tangent ≥ min(2, 2·0.5·3) = 2 in 3D
             let constants = BTreeMap::new();
-            let law = PotentialViscosity::new(Arc::new(ExpressionPotential {
-                expr: Expr::parse(
+            let law = PotentialViscosity::new(Arc::new(ExpressionPotential::new(
+                Expr::parse(
                     "dev_norm^2 + 0.5*tr_eps^2 + 0.3*(sqrt(1 + dev_norm^2 + tr_eps^2) - 1)",
                     &POTENTIAL_VARIABLES,
                     &constants,
                 )
                 .unwrap(),
-            }));
+            )));
             let symmetric = |values: &[f64]| {
                 let m = Tensor::<3>::from_column_slice(values);
                 (m + m.transpose()) * 0.5

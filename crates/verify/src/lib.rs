@@ -2,12 +2,11 @@
 //! (Han, Shillor & Sofonea 2001, error estimate of Theorem 5.2).
 //!
 //! Building blocks of the verification harness:
-//! - [`expr`]: closed-form expressions in `x, y, z, t` (or any named variables) from the case
-//!   files, evaluated generically on `num-dual` numbers so that source terms can be derived by
-//!   automatic differentiation;
+//! - [`expr`], [`output`], [`VerifyError`]: the expression language, the atomic writers and the
+//!   error type of the shared input layer (crate `contact-input`, re-exported here);
 //! - [`plot`]: log–log convergence plots written as SVG;
-//! - [`output`]: atomic writing of report files (raw bytes, JSON, CSV);
-//! - [`case`]: manufactured cases as TOML data, validated;
+//! - [`case`]: manufactured cases as TOML data, validated (the `[laws]` and `[scheme]` tables
+//!   and the box sides are read by `contact-input`, as in `simulate`'s problem files);
 //! - [`manufactured`]: source terms f0, f2, f3, q derived by automatic differentiation;
 //! - [`errors`]: the components of E(h, k) of Theorem 5.2;
 //! - [`study`]: h-, k- and diagonal studies with rates and verdicts;
@@ -16,13 +15,13 @@
 
 pub mod case;
 pub mod cli;
-pub mod error;
 pub mod errors;
-pub mod expr;
 pub mod manufactured;
-pub mod output;
 pub mod plot;
 pub mod report;
 pub mod study;
 
-pub use error::VerifyError;
+/// The error type of the harness: that of the input layer (case-file errors are
+/// [`FileKind::Case`](contact_input::FileKind::Case)).
+pub use contact_input::InputError as VerifyError;
+pub use contact_input::{expr, output};

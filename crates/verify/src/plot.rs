@@ -9,8 +9,8 @@ use std::path::Path;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
-use crate::error::VerifyError;
 use crate::output::write_atomic;
+use crate::VerifyError;
 
 /// Width and height of the plot in SVG pixels.
 const PLOT_SIZE: (u32, u32) = (800, 600);
@@ -216,7 +216,6 @@ pub fn loglog_svg(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::output::tests::ScratchDir;
 
     fn convergence_series() -> Vec<Series> {
         let mesh_sizes = [0.5, 0.25, 0.125, 0.0625];
@@ -244,8 +243,8 @@ mod tests {
 
     #[test]
     fn writes_an_svg_with_series_and_reference_labels() {
-        let scratch = ScratchDir::new("plot");
-        let path = scratch.0.join("plots/convergence.svg");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("plots/convergence.svg");
         let references = [
             ReferenceSlope::order(1.0, "h"),
             ReferenceSlope::order(2.0, "h").through((0.5, 0.01)),
@@ -290,8 +289,8 @@ mod tests {
 
     #[test]
     fn no_positive_data_is_an_error() {
-        let scratch = ScratchDir::new("plot-empty");
-        let path = scratch.0.join("empty.svg");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("empty.svg");
         let series = [Series {
             label: "bad".to_string(),
             points: vec![(0.0, 1.0), (1.0, 0.0), (f64::NAN, f64::NAN)],
@@ -306,8 +305,8 @@ mod tests {
 
     #[test]
     fn invalid_reference_is_an_error() {
-        let scratch = ScratchDir::new("plot-reference");
-        let path = scratch.0.join("reference.svg");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("reference.svg");
         let references = [ReferenceSlope::order(1.0, "h").through((-1.0, 1.0))];
         let error =
             loglog_svg(&path, "t", "h", "e", &convergence_series(), &references).unwrap_err();
@@ -316,8 +315,8 @@ mod tests {
 
     #[test]
     fn single_point_gets_a_nonempty_range() {
-        let scratch = ScratchDir::new("plot-single");
-        let path = scratch.0.join("single.svg");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("single.svg");
         let series = [Series {
             label: "one point".to_string(),
             points: vec![(0.1, 0.01)],
@@ -338,9 +337,9 @@ mod tests {
 
     #[test]
     fn unwritable_directory_gives_an_error_naming_the_path() {
-        let scratch = ScratchDir::new("plot-unwritable");
+        let scratch = tempfile::tempdir().unwrap();
         // The directory is missing and cannot be created: a regular file is in the way.
-        let blocker = scratch.0.join("file-not-directory");
+        let blocker = scratch.path().join("file-not-directory");
         std::fs::write(&blocker, b"").unwrap();
         let path = blocker.join("missing/convergence.svg");
         let error = loglog_svg(&path, "t", "h", "e", &convergence_series(), &[]).unwrap_err();

@@ -209,7 +209,6 @@ pub fn write_reports(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::output::tests::ScratchDir;
     use crate::study::{rates, RunResult, RunStats, StudyKind};
 
     /// A k-study whose velocity error has no value (its reference is discrete).
@@ -252,8 +251,8 @@ mod tests {
 
     #[test]
     fn reports_of_a_k_study_have_no_nan_and_no_velocity_curve() {
-        let scratch = ScratchDir::new("reports");
-        let written = write_reports(&scratch.0, "test", "inline", 2, &[k_study()]).unwrap();
+        let scratch = tempfile::tempdir().unwrap();
+        let written = write_reports(scratch.path(), "test", "inline", 2, &[k_study()]).unwrap();
         assert_eq!(written.len(), 3);
         for path in &written {
             let text = std::fs::read_to_string(path).unwrap();
@@ -263,7 +262,7 @@ mod tests {
                 path.display()
             );
         }
-        let csv = std::fs::read_to_string(scratch.0.join("errors.csv")).unwrap();
+        let csv = std::fs::read_to_string(scratch.path().join("errors.csv")).unwrap();
         let mut reader = csv::Reader::from_reader(csv.as_bytes());
         let header = reader.headers().unwrap().clone();
         let column = |name: &str| header.iter().position(|h| h == name).unwrap();
@@ -275,11 +274,12 @@ mod tests {
             assert_eq!(&record[column("mean_newton_iterations")], "1.5");
             assert_eq!(&record[column("max_newton_iterations")], "2");
         }
-        let svg = std::fs::read_to_string(scratch.0.join("k-l1.svg")).unwrap();
+        let svg = std::fs::read_to_string(scratch.path().join("k-l1.svg")).unwrap();
         assert!(svg.contains("damage gradient") && !svg.contains("velocity"));
-        let json: serde_json::Value =
-            serde_json::from_str(&std::fs::read_to_string(scratch.0.join("summary.json")).unwrap())
-                .unwrap();
+        let json: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(scratch.path().join("summary.json")).unwrap(),
+        )
+        .unwrap();
         let study = &json["studies"][0];
         assert!(study["runs"][0]["errors"]["velocity"].is_null());
         assert_eq!(study["runs"][0]["stats"]["max_newton_iterations"], 2);

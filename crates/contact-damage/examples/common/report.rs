@@ -61,26 +61,13 @@ pub fn fmt_s(value: f64) -> String {
     }
 }
 
-/// Writes `contents` to a temporary file beside `path`, then renames it over `path`.
+/// Writes `contents` atomically ([`contact_damage::atomic::write_atomic`]), creating the
+/// directory first.
 pub fn write_atomically(path: &Path, contents: &str) -> Result<(), String> {
-    let directory = path
-        .parent()
-        .ok_or_else(|| format!("{} has no parent directory", path.display()))?;
-    std::fs::create_dir_all(directory)
-        .map_err(|e| format!("cannot create {}: {e}", directory.display()))?;
-    let file_name = path
-        .file_name()
-        .ok_or_else(|| format!("{} has no file name", path.display()))?
-        .to_string_lossy();
-    let temporary = directory.join(format!(".{file_name}.tmp{}", std::process::id()));
-    std::fs::write(&temporary, contents)
-        .map_err(|e| format!("cannot write {}: {e}", temporary.display()))?;
-    std::fs::rename(&temporary, path).map_err(|e| {
-        let _ = std::fs::remove_file(&temporary);
-        format!(
-            "cannot rename {} to {}: {e}",
-            temporary.display(),
-            path.display()
-        )
-    })
+    if let Some(directory) = path.parent() {
+        std::fs::create_dir_all(directory)
+            .map_err(|e| format!("cannot create {}: {e}", directory.display()))?;
+    }
+    contact_damage::atomic::write_atomic(path, |out| out.write_all(contents.as_bytes()))
+        .map_err(|e| e.to_string())
 }

@@ -3,21 +3,19 @@
 //! A report file is either absent, or complete with the old contents, or complete with the new
 //! contents — never truncated, even if the harness is killed mid-write: the bytes go to a
 //! temporary file in the same directory, which is flushed to disk (`fsync`) and then renamed
-//! over the target (an atomic replacement on POSIX file systems).
+//! over the target (an atomic replacement on POSIX file systems). The writer is the solver
+//! crate's [`contact_damage::atomic`], the one of the VTU/PVD files too.
 //!
 //! A number without a value (e.g. the velocity error of a k-study, whose reference is discrete;
 //! a rate between two levels where one error is zero) is carried as a non-finite `f64` and never
 //! written as `NaN` or `inf`: it is `null` in JSON ([`finite_or_null`]) and [`MISSING`] (an em
 //! dash) in CSV cells ([`finite_or_dash`]) and in the terminal tables.
 
-use std::fs::{self, File, OpenOptions};
-use std::io::{self, Write};
-use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::path::Path;
 
 use serde::{Serialize, Serializer};
 
-use crate::error::VerifyError;
+use crate::error::InputError;
 
 /// How a missing value is written in CSV cells and terminal tables: an em dash.
 pub const MISSING: &str = "—";
@@ -55,50 +53,26 @@ pub fn format_or_dash(value: f64, format: impl Fn(f64) -> String) -> String {
     finite(value).map_or_else(|| MISSING.to_string(), format)
 }
 
-/// Distinguishes temporary files of concurrent writers within one process.
-static TEMP_COUNTER: AtomicU64 = AtomicU64::new(0);
-
-/// Write `bytes` to `path` atomically: write to a temporary file in the same directory,
-/// `fsync` it, rename it over `path`, then `fsync` the directory (best effort).
-///
-/// Missing parent directories are created. On failure the temporary file is removed and the
-/// error names the path and the failed action.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), VerifyError> {
-    let file_name = path.file_name().ok_or_else(|| {
-        VerifyError::io(
-            "writing",
-            path,
-            io::Error::new(io::ErrorKind::InvalidInput, "the path has no file name"),
-        )
-    })?;
-    let directory = match path.parent() {
-        Some(parent) if !parent.as_os_str().is_empty() => parent.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    fs::create_dir_all(&directory)
-        .map_err(|source| VerifyError::io("creating directory", &directory, source))?;
-
-    let (temp_path, mut temp_file) = create_temp_file(&directory, file_name)?;
-    let written = temp_file
-        .write_all(bytes)
-        .and_then(|()| temp_file.sync_all())
-        .map_err(|source| VerifyError::io("writing temporary file", &temp_path, source));
-    drop(temp_file);
-    if let Err(error) = written {
-        let _ = fs::remove_file(&temp_path);
-        return Err(error);
+/// Write `bytes` to `path` atomically ([`contact_damage::atomic::write_atomic`]: a temporary
+/// file in the same directory, synced, renamed over `path`). Missing parent directories are
+/// created; the error names the path and the failed action.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), InputError> {
+    if let Some(directory) = path.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(directory)
+            .map_err(|source| InputError::io("creating directory", directory, source))?;
     }
-    if let Err(source) = fs::rename(&temp_path, path) {
-        let _ = fs::remove_file(&temp_path);
-        return Err(VerifyError::io("replacing", path, source));
-    }
-    sync_directory(&directory);
-    Ok(())
+    contact_damage::atomic::write_atomic(path, |out| out.write_all(bytes)).map_err(|error| {
+        InputError::Io {
+            action: error.action,
+            path: error.path,
+            source: error.source,
+        }
+    })
 }
 
 /// Serialize `value` as pretty-printed JSON (with a final newline) and write it atomically.
-pub fn write_json_atomic<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), VerifyError> {
-    let mut bytes = serde_json::to_vec_pretty(value).map_err(|error| VerifyError::Serialize {
+pub fn write_json_atomic<T: serde::Serialize>(path: &Path, value: &T) -> Result<(), InputError> {
+    let mut bytes = serde_json::to_vec_pretty(value).map_err(|error| InputError::Serialize {
         path: path.to_path_buf(),
         message: error.to_string(),
     })?;
@@ -110,8 +84,8 @@ pub fn write_json_atomic<T: serde::Serialize>(path: &Path, value: &T) -> Result<
 /// as the `csv` crate does for structs) and write it atomically.
 ///
 /// An empty slice gives an empty file (there is no row to take the header from).
-pub fn write_csv_atomic<R: serde::Serialize>(path: &Path, rows: &[R]) -> Result<(), VerifyError> {
-    let serialize_error = |error: csv::Error| VerifyError::Serialize {
+pub fn write_csv_atomic<R: serde::Serialize>(path: &Path, rows: &[R]) -> Result<(), InputError> {
+    let serialize_error = |error: csv::Error| InputError::Serialize {
         path: path.to_path_buf(),
         message: error.to_string(),
     };
@@ -119,79 +93,17 @@ pub fn write_csv_atomic<R: serde::Serialize>(path: &Path, rows: &[R]) -> Result<
     for row in rows {
         writer.serialize(row).map_err(serialize_error)?;
     }
-    let bytes = writer
-        .into_inner()
-        .map_err(|error| VerifyError::Serialize {
-            path: path.to_path_buf(),
-            message: error.to_string(),
-        })?;
+    let bytes = writer.into_inner().map_err(|error| InputError::Serialize {
+        path: path.to_path_buf(),
+        message: error.to_string(),
+    })?;
     write_atomic(path, &bytes)
 }
 
-/// Create a new, empty temporary file `.<file_name>.tmp.<pid>.<n>` in `directory`
-/// (exclusive creation, so two writers never share a temporary file).
-fn create_temp_file(
-    directory: &Path,
-    file_name: &std::ffi::OsStr,
-) -> Result<(PathBuf, File), VerifyError> {
-    let process = std::process::id();
-    loop {
-        let serial = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
-        let mut temp_name = std::ffi::OsString::from(".");
-        temp_name.push(file_name);
-        temp_name.push(format!(".tmp.{process}.{serial}"));
-        let temp_path = directory.join(temp_name);
-        match OpenOptions::new()
-            .write(true)
-            .create_new(true)
-            .open(&temp_path)
-        {
-            Ok(file) => return Ok((temp_path, file)),
-            Err(error) if error.kind() == io::ErrorKind::AlreadyExists => continue,
-            Err(source) => {
-                return Err(VerifyError::io(
-                    "creating temporary file",
-                    &temp_path,
-                    source,
-                ))
-            }
-        }
-    }
-}
-
-/// Flush the directory entry of a rename to disk. Best effort: not every platform or file
-/// system supports syncing a directory, and the data file itself is already synced.
-fn sync_directory(directory: &Path) {
-    if let Ok(handle) = File::open(directory) {
-        let _ = handle.sync_all();
-    }
-}
-
 #[cfg(test)]
-pub(crate) mod tests {
+mod tests {
     use super::*;
-
-    /// A fresh, empty directory under the system temporary directory, removed on drop.
-    pub(crate) struct ScratchDir(pub PathBuf);
-
-    impl ScratchDir {
-        pub(crate) fn new(name: &str) -> Self {
-            let serial = TEMP_COUNTER.fetch_add(1, Ordering::Relaxed);
-            let path = std::env::temp_dir().join(format!(
-                "verify-test-{name}-{}-{serial}",
-                std::process::id()
-            ));
-            let _ = fs::remove_dir_all(&path);
-            fs::create_dir_all(&path).expect("create scratch directory");
-            ScratchDir(path)
-        }
-    }
-
-    impl Drop for ScratchDir {
-        fn drop(&mut self) {
-            let _ = fs::remove_dir_all(&self.0);
-        }
-    }
+    use std::fs;
 
     fn entries(directory: &Path) -> Vec<String> {
         let mut names: Vec<String> = fs::read_dir(directory)
@@ -211,30 +123,30 @@ pub(crate) mod tests {
 
     #[test]
     fn bytes_round_trip_and_no_temporary_file_is_left() {
-        let scratch = ScratchDir::new("bytes");
-        let path = scratch.0.join("nested/deeper/report.txt");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("nested/deeper/report.txt");
         write_atomic(&path, b"hello\nworld\n").unwrap();
         assert_eq!(fs::read(&path).unwrap(), b"hello\nworld\n");
         assert_eq!(
-            entries(&scratch.0.join("nested/deeper")),
+            entries(&scratch.path().join("nested/deeper")),
             vec!["report.txt"]
         );
     }
 
     #[test]
     fn existing_file_is_replaced_whole() {
-        let scratch = ScratchDir::new("replace");
-        let path = scratch.0.join("report.txt");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("report.txt");
         write_atomic(&path, &[b'x'; 1000]).unwrap();
         write_atomic(&path, b"short").unwrap();
         assert_eq!(fs::read(&path).unwrap(), b"short");
-        assert_eq!(entries(&scratch.0), vec!["report.txt"]);
+        assert_eq!(entries(scratch.path()), vec!["report.txt"]);
     }
 
     #[test]
     fn json_round_trips_pretty_printed() {
-        let scratch = ScratchDir::new("json");
-        let path = scratch.0.join("report.json");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("report.json");
         let rows = vec![
             Row {
                 level: 0,
@@ -257,8 +169,8 @@ pub(crate) mod tests {
 
     #[test]
     fn csv_round_trips_with_header() {
-        let scratch = ScratchDir::new("csv");
-        let path = scratch.0.join("table.csv");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("table.csv");
         let rows = vec![
             Row {
                 level: 0,
@@ -277,15 +189,15 @@ pub(crate) mod tests {
         let mut reader = csv::Reader::from_path(&path).unwrap();
         let back: Vec<Row> = reader.deserialize().map(|row| row.unwrap()).collect();
         assert_eq!(back, rows);
-        assert_eq!(entries(&scratch.0), vec!["table.csv"]);
+        assert_eq!(entries(scratch.path()), vec!["table.csv"]);
     }
 
     #[test]
     fn unwritable_path_gives_an_error_naming_it() {
-        let scratch = ScratchDir::new("unwritable");
+        let scratch = tempfile::tempdir().unwrap();
         // A regular file where a directory is needed: the parent can never be created,
         // whatever the privileges of the user running the tests.
-        let blocker = scratch.0.join("not-a-directory");
+        let blocker = scratch.path().join("not-a-directory");
         fs::write(&blocker, b"").unwrap();
         let path = blocker.join("report.json");
         let error = write_json_atomic(&path, &[1, 2, 3]).unwrap_err();
@@ -294,7 +206,7 @@ pub(crate) mod tests {
             message.contains(&blocker.display().to_string()),
             "error does not name the path: {message}"
         );
-        assert!(matches!(error, VerifyError::Io { .. }));
+        assert!(matches!(error, InputError::Io { .. }));
     }
 
     #[derive(serde::Serialize)]
@@ -306,8 +218,8 @@ pub(crate) mod tests {
 
     #[test]
     fn a_missing_value_is_a_dash_in_csv() {
-        let scratch = ScratchDir::new("missing-csv");
-        let path = scratch.0.join("table.csv");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("table.csv");
         let rows = [0.5, f64::NAN, f64::INFINITY].map(|error| CsvRow { error, count: 1 });
         write_csv_atomic(&path, &rows).unwrap();
         let text = fs::read_to_string(&path).unwrap();
@@ -324,8 +236,8 @@ pub(crate) mod tests {
 
     #[test]
     fn a_missing_value_is_null_in_json() {
-        let scratch = ScratchDir::new("missing-json");
-        let path = scratch.0.join("record.json");
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("record.json");
         let records = [
             JsonRecord {
                 rate: 0.25,

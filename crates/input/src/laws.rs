@@ -1,0 +1,348 @@
+//! `[laws]` of case and problem files: the constitutive laws 𝒜 (viscosity), G (elasticity),
+//! φ (damage source), p_ν, p_τ (normal compliance with Coulomb friction (2.10)–(2.12)) and κ,
+//! read from TOML and built, validated, as the solver's [`Model`]. Laws given by expressions
+//! (a viscosity potential, damage-dependent moduli, a damage source) are evaluated with
+//! derivatives by dual numbers (num-dual).
+
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+use contact_damage::laws::{
+    DamageModuli, DamageSource, DamagedHooke, Elasticity, InvariantJet, InvariantPotential,
+    LinearViscosity, ModuliElasticity, NormalComplianceCoulomb, PotentialViscosity,
+    SaturatingViscosity, Tensor, TruncatedFremond, Viscosity,
+};
+use contact_damage::scheme::Model;
+use nalgebra::SVector;
+use num_dual::{Dual2SVec64, Dual64};
+use serde::{Deserialize, Serialize};
+
+use crate::error::{FileKind, InputError};
+use crate::expr::Expr;
+use crate::file::{parse_expr, positive};
+
+/// The variables of a damage-source expression.
+pub const SOURCE_VARIABLES: [&str; 3] = ["beta", "tr_eps", "eps_eps"];
+/// The variables of a viscosity potential: the invariants tr ε and |ε_D| of the strain rate.
+pub const POTENTIAL_VARIABLES: [&str; 2] = ["tr_eps", "dev_norm"];
+/// The variable of the damage-dependent elastic moduli.
+pub const MODULI_VARIABLES: [&str; 1] = ["beta"];
+
+/// `[laws]`.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct LawsFile {
+    /// 𝒜.
+    pub viscosity: ViscosityFile,
+    /// G.
+    pub elasticity: ElasticityFile,
+    /// φ.
+    pub damage_source: DamageSourceFile,
+    /// p_ν, p_τ.
+    pub contact: ContactFile,
+    /// κ.
+    pub damage_diffusion: f64,
+}
+
+/// Viscosity laws.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ViscosityFile {
+    /// 𝒜ε = 2ηε + ζ tr(ε) I.
+    Linear { shear: f64, bulk: f64 },
+    /// Linear plus a saturating deviatoric part.
+    Saturating {
+        shear: f64,
+        bulk: f64,
+        extra_shear: f64,
+        rate_scale: f64,
+    },
+    /// 𝒜 = ∂Φ/∂ε for a convex potential Φ written as an expression in `tr_eps` = tr ε and
+    /// `dev_norm` = |ε_D| ([`PotentialViscosity`]; derivatives by automatic differentiation,
+    /// checked for (3.4) at sampled strain rates when the file is loaded).
+    Potential { potential: String },
+}
+
+/// Elasticity laws.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum ElasticityFile {
+    /// G = β(2με + λ tr(ε) I).
+    DamagedHooke {
+        shear_modulus: f64,
+        lame_lambda: f64,
+    },
+    /// G = 2μ(β) ε + λ(β) tr(ε) I with μ, λ expressions in `beta` ([`ModuliElasticity`];
+    /// β clamped to [0, 1], derivatives by automatic differentiation).
+    Moduli {
+        shear_modulus: String,
+        lame_lambda: String,
+    },
+}
+
+/// Damage sources.
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum DamageSourceFile {
+    /// The truncated Frémond source.
+    Fremond {
+        lambda_d: f64,
+        lambda_w: f64,
+        damage_floor: f64,
+        strain_energy_cap: f64,
+    },
+    /// φ as an expression in `beta`, `tr_eps`, `eps_eps`.
+    Expression { expr: String },
+}
+
+/// Normal compliance with Coulomb friction (2.10)–(2.12).
+#[derive(Debug, Clone, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactFile {
+    /// c_ν.
+    pub stiffness: f64,
+    /// μ.
+    pub friction: f64,
+    /// δ.
+    #[serde(default)]
+    pub wear: f64,
+}
+
+impl LawsFile {
+    /// Builds and validates the laws in dimension D: expressions are parsed with the given
+    /// `constants` and the variables [`SOURCE_VARIABLES`] (damage source),
+    /// [`POTENTIAL_VARIABLES`] (viscosity potential) or [`MODULI_VARIABLES`] (elastic moduli);
+    /// every law is validated (a viscosity potential and elastic moduli by the sampling checks of
+    /// [`PotentialViscosity`] and [`ModuliElasticity`]) and κ must be positive. Errors name
+    /// the file (`kind`, `origin`) and the key under `laws` (e.g. `laws.viscosity.potential`, with the expression).
+    pub fn build<const D: usize>(
+        &self,
+        kind: FileKind,
+        origin: &str,
+        constants: &BTreeMap<String, f64>,
+    ) -> Result<Model<D>, InputError> {
+        let laws_file = self;
+        let viscosity: Arc<dyn Viscosity<D>> = match &laws_file.viscosity {
+            &ViscosityFile::Linear { shear, bulk } => Arc::new(LinearViscosity { shear, bulk }),
+            &ViscosityFile::Saturating {
+                shear,
+                bulk,
+                extra_shear,
+                rate_scale,
+            } => Arc::new(SaturatingViscosity {
+                linear: LinearViscosity { shear, bulk },
+                extra_shear,
+                rate_scale,
+            }),
+            ViscosityFile::Potential { potential } => {
+                Arc::new(PotentialViscosity::new(Arc::new(ExpressionPotential {
+                    expr: parse_expr(
+                        kind,
+                        origin,
+                        "laws.viscosity.potential",
+                        potential,
+                        &POTENTIAL_VARIABLES,
+                        constants,
+                    )?,
+                })))
+            }
+        };
+        let elasticity: Arc<dyn Elasticity<D>> = match &laws_file.elasticity {
+            &ElasticityFile::DamagedHooke {
+                shear_modulus,
+                lame_lambda,
+            } => Arc::new(DamagedHooke {
+                shear_modulus,
+                lame_lambda,
+            }),
+            ElasticityFile::Moduli {
+                shear_modulus,
+                lame_lambda,
+            } => Arc::new(ModuliElasticity {
+                moduli: Arc::new(ExpressionModuli {
+                    shear_modulus: parse_expr(
+                        kind,
+                        origin,
+                        "laws.elasticity.shear_modulus",
+                        shear_modulus,
+                        &MODULI_VARIABLES,
+                        constants,
+                    )?,
+                    lame_lambda: parse_expr(
+                        kind,
+                        origin,
+                        "laws.elasticity.lame_lambda",
+                        lame_lambda,
+                        &MODULI_VARIABLES,
+                        constants,
+                    )?,
+                }),
+            }),
+        };
+        let damage_source: Arc<dyn DamageSource<D>> = match &laws_file.damage_source {
+            DamageSourceFile::Fremond {
+                lambda_d,
+                lambda_w,
+                damage_floor,
+                strain_energy_cap,
+            } => Arc::new(TruncatedFremond {
+                lambda_d: *lambda_d,
+                lambda_w: *lambda_w,
+                damage_floor: *damage_floor,
+                strain_energy_cap: *strain_energy_cap,
+            }),
+            DamageSourceFile::Expression { expr } => Arc::new(ExpressionDamageSource {
+                expr: parse_expr(
+                    kind,
+                    origin,
+                    "laws.damage_source.expr",
+                    expr,
+                    &SOURCE_VARIABLES,
+                    constants,
+                )?,
+            }),
+        };
+        let contact = Arc::new(NormalComplianceCoulomb {
+            stiffness: laws_file.contact.stiffness,
+            friction: laws_file.contact.friction,
+            wear: laws_file.contact.wear,
+        });
+        let laws = Model {
+            viscosity,
+            elasticity,
+            damage_source,
+            contact,
+            damage_diffusion: laws_file.damage_diffusion,
+        };
+        let law_error = |e: contact_damage::Error| self.law_error(kind, origin, e);
+        laws.viscosity.validate().map_err(law_error)?;
+        laws.elasticity.validate().map_err(law_error)?;
+        laws.damage_source.validate().map_err(law_error)?;
+        laws.contact.validate().map_err(law_error)?;
+        positive(kind, origin, "laws.damage_diffusion", laws.damage_diffusion)?;
+        Ok(laws)
+    }
+}
+
+impl LawsFile {
+    /// A law's validation error as an error of the file: the key is `laws.` followed by the parameter
+    /// the law names (`laws` when it names none), and the message starts with the expression
+    /// when the parameter is one.
+    fn law_error(&self, kind: FileKind, origin: &str, error: contact_damage::Error) -> InputError {
+        let name = match &error {
+            contact_damage::Error::InvalidParameter { name, .. } => Some(name.as_str()),
+            _ => None,
+        };
+        // the leading key-like part of the name (`damage_source(0, β)` → `damage_source`)
+        let path = name.map_or("", |name| {
+            let end = name
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_' || c == '.'))
+                .unwrap_or(name.len());
+            name[..end].trim_matches('.')
+        });
+        let key = if path.is_empty() || path == "laws" {
+            "laws".to_string()
+        } else if path.starts_with("laws.") {
+            path.to_string()
+        } else {
+            format!("laws.{path}")
+        };
+        let expression = match (key.as_str(), &self.viscosity, &self.elasticity) {
+            ("laws.viscosity.potential", ViscosityFile::Potential { potential }, _) => {
+                Some(potential)
+            }
+            ("laws.elasticity.shear_modulus", _, ElasticityFile::Moduli { shear_modulus, .. }) => {
+                Some(shear_modulus)
+            }
+            ("laws.elasticity.lame_lambda", _, ElasticityFile::Moduli { lame_lambda, .. }) => {
+                Some(lame_lambda)
+            }
+            _ => None,
+        };
+        match expression {
+            Some(source) => kind.error(origin, &key, format!("`{source}`: {error}")),
+            None => kind.error(origin, &key, error.to_string()),
+        }
+    }
+}
+
+/// A viscosity potential Φ(tr ε, |ε_D|) given by an expression in [`POTENTIAL_VARIABLES`]; Φ and
+/// its first and second derivatives by second-order dual numbers (num-dual).
+pub struct ExpressionPotential {
+    expr: Expr,
+}
+
+impl ExpressionPotential {
+    /// The potential Φ = `expr`, an expression in [`POTENTIAL_VARIABLES`].
+    pub fn new(expr: Expr) -> Self {
+        Self { expr }
+    }
+}
+
+impl InvariantPotential for ExpressionPotential {
+    fn value(&self, trace: f64, dev_norm: f64) -> f64 {
+        self.expr.eval_f64(&[trace, dev_norm])
+    }
+
+    fn jet(&self, trace: f64, dev_norm: f64) -> InvariantJet {
+        let (value, gradient, hessian) = num_dual::hessian(
+            |v: SVector<Dual2SVec64<2>, 2>| self.expr.eval(&[v[0], v[1]]),
+            &SVector::from([trace, dev_norm]),
+        );
+        InvariantJet {
+            value,
+            gradient: [gradient[0], gradient[1]],
+            hessian: [
+                [hessian[(0, 0)], hessian[(0, 1)]],
+                [hessian[(1, 0)], hessian[(1, 1)]],
+            ],
+        }
+    }
+}
+
+/// Elastic moduli μ(β), λ(β) given by expressions in [`MODULI_VARIABLES`]; derivatives by dual
+/// numbers (num-dual).
+pub struct ExpressionModuli {
+    shear_modulus: Expr,
+    lame_lambda: Expr,
+}
+
+fn value_and_slope(expr: &Expr, beta: f64) -> (f64, f64) {
+    let result = expr.eval(&[Dual64::new(beta, 1.0)]);
+    (result.re, result.eps)
+}
+
+impl DamageModuli for ExpressionModuli {
+    fn shear_modulus(&self, damage: f64) -> (f64, f64) {
+        value_and_slope(&self.shear_modulus, damage)
+    }
+
+    fn lame_lambda(&self, damage: f64) -> (f64, f64) {
+        value_and_slope(&self.lame_lambda, damage)
+    }
+}
+
+/// A damage source given by an expression in β, tr ε and ε:ε.
+pub struct ExpressionDamageSource {
+    expr: Expr,
+}
+
+impl<const D: usize> DamageSource<D> for ExpressionDamageSource {
+    fn source(&self, strain: &Tensor<D>, damage: f64) -> f64 {
+        self.expr
+            .eval_f64(&[damage, strain.trace(), strain.norm_squared()])
+    }
+    fn validate(&self) -> contact_damage::Result<()> {
+        for beta in [0.0, 0.5, 1.0] {
+            let v = self.expr.eval_f64(&[beta, 0.0, 0.0]);
+            if !v.is_finite() {
+                return Err(contact_damage::Error::parameter(
+                    "laws.damage_source.expr at ε = 0",
+                    beta,
+                    "the damage source expression is not finite",
+                ));
+            }
+        }
+        Ok(())
+    }
+}
