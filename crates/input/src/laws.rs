@@ -8,11 +8,11 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use contact_damage::laws::{
-    DamageModuli, DamageSource, DamagedHooke, Elasticity, InvariantJet, InvariantPotential,
-    LinearViscosity, ModuliElasticity, NormalComplianceCoulomb, PotentialViscosity,
-    SaturatingViscosity, Tensor, TruncatedFremond, Viscosity,
+    DamageModuli, DamageSource, DamageSourceFn, DamagedHooke, Elasticity, InvariantJet,
+    InvariantPotential, LinearViscosity, ModuliElasticity, NormalComplianceCoulomb,
+    PotentialViscosity, SaturatingViscosity, Tensor, TruncatedFremond, Viscosity,
 };
-use contact_damage::scheme::Model;
+use contact_damage::scheme::{DamageEvolution, Model};
 use nalgebra::SVector;
 use num_dual::{Dual2SVec64, Dual64};
 use serde::{Deserialize, Serialize};
@@ -36,12 +36,14 @@ pub struct LawsFile {
     pub viscosity: ViscosityFile,
     /// G.
     pub elasticity: ElasticityFile,
-    /// φ.
-    pub damage_source: DamageSourceFile,
+    /// φ (may be left out when the damage is frozen, `[scheme] damage = false`).
+    #[serde(default)]
+    pub damage_source: Option<DamageSourceFile>,
     /// p_ν, p_τ.
     pub contact: ContactFile,
-    /// κ.
-    pub damage_diffusion: f64,
+    /// κ (may be left out when the damage is frozen).
+    #[serde(default)]
+    pub damage_diffusion: Option<f64>,
 }
 
 /// Viscosity laws.
@@ -115,11 +117,14 @@ impl LawsFile {
     /// every law is validated (a viscosity potential and elastic moduli by the sampling checks of
     /// [`PotentialViscosity`] and [`ModuliElasticity`]) and κ must be positive. Errors name
     /// the file (`kind`, `origin`) and the key under `laws` (e.g. `laws.viscosity.potential`, with the expression).
+    /// With frozen damage (`damage`), `damage_source` and `damage_diffusion` may be absent
+    /// (then φ = 0 and κ = 0, never used); with evolving damage their absence is an error.
     pub fn build<const D: usize>(
         &self,
         kind: FileKind,
         origin: &str,
         constants: &BTreeMap<String, f64>,
+        damage: DamageEvolution,
     ) -> Result<Model<D>, InputError> {
         let laws_file = self;
         let viscosity: Arc<dyn Viscosity<D>> = match &laws_file.viscosity {
@@ -179,19 +184,30 @@ impl LawsFile {
                 }),
             }),
         };
+        let frozen = damage == DamageEvolution::Frozen;
+        let missing = |key: &str| {
+            kind.error(
+                origin,
+                key,
+                "missing: the damage evolves by (5.2) (give the law, or set `[scheme] damage = false` for a pure contact problem)",
+            )
+        };
         let damage_source: Arc<dyn DamageSource<D>> = match &laws_file.damage_source {
-            DamageSourceFile::Fremond {
+            // frozen damage: φ is never used
+            None if frozen => Arc::new(DamageSourceFn(|_: &Tensor<D>, _: f64| 0.0)),
+            None => return Err(missing("laws.damage_source")),
+            Some(DamageSourceFile::Fremond {
                 lambda_d,
                 lambda_w,
                 damage_floor,
                 strain_energy_cap,
-            } => Arc::new(TruncatedFremond {
+            }) => Arc::new(TruncatedFremond {
                 lambda_d: *lambda_d,
                 lambda_w: *lambda_w,
                 damage_floor: *damage_floor,
                 strain_energy_cap: *strain_energy_cap,
             }),
-            DamageSourceFile::Expression { expr } => Arc::new(ExpressionDamageSource {
+            Some(DamageSourceFile::Expression { expr }) => Arc::new(ExpressionDamageSource {
                 expr: parse_expr(
                     kind,
                     origin,
@@ -212,14 +228,23 @@ impl LawsFile {
             elasticity,
             damage_source,
             contact,
-            damage_diffusion: laws_file.damage_diffusion,
+            // frozen damage: κ is never used
+            damage_diffusion: match laws_file.damage_diffusion {
+                Some(kappa) => kappa,
+                None if frozen => 0.0,
+                None => return Err(missing("laws.damage_diffusion")),
+            },
         };
         let law_error = |e: contact_damage::Error| self.law_error(kind, origin, e);
         laws.viscosity.validate().map_err(law_error)?;
         laws.elasticity.validate().map_err(law_error)?;
-        laws.damage_source.validate().map_err(law_error)?;
+        if laws_file.damage_source.is_some() {
+            laws.damage_source.validate().map_err(law_error)?;
+        }
         laws.contact.validate().map_err(law_error)?;
-        positive(kind, origin, "laws.damage_diffusion", laws.damage_diffusion)?;
+        if laws_file.damage_diffusion.is_some() {
+            positive(kind, origin, "laws.damage_diffusion", laws.damage_diffusion)?;
+        }
         Ok(laws)
     }
 }

@@ -27,6 +27,9 @@
 //! [scheme]
 //! contact = "explicit"     # p_ν at u_{n−1} as in (5.1); "implicit": at u_{n−1} + k v_n (stiff
 //!                          # contact at any step; the friction bound stays at u_{n−1})
+//! damage = true            # false: a pure contact problem — no damage step (5.2), β stays β0,
+//!                          # no damage pictures; laws.damage_source and
+//!                          # laws.damage_diffusion may then be left out
 //! [solver]                 # all optional; the defaults are shown
 //! velocity_tolerance = 1e-10      # relative KKT residual of the velocity step (5.1)
 //! max_newton = 50                 # (proximal) Newton iterations of (5.1), nonlinear 𝒜
@@ -522,6 +525,7 @@ impl<const D: usize> ProblemSetup<D> {
         }
         let mut settings = file.solver.settings(origin)?;
         settings.contact = file.scheme.contact_treatment();
+        settings.damage_evolution = file.scheme.damage_evolution();
         let canonical = |value: Result<String, serde_json::Error>| {
             value.unwrap_or_else(|e| unreachable!("plain data serializes to JSON: {e}"))
         };
@@ -550,7 +554,12 @@ impl<const D: usize> ProblemSetup<D> {
             );
         }
         let constants = &file.constants;
-        let laws = file.laws.build::<D>(FileKind::Problem, origin, constants)?;
+        let laws = file.laws.build::<D>(
+            FileKind::Problem,
+            origin,
+            constants,
+            file.scheme.damage_evolution(),
+        )?;
 
         let loads = &file.loads;
         let body_force = loads

@@ -40,7 +40,7 @@ use contact_damage::contact::ContactStatus;
 use contact_damage::laws::Tensor;
 use contact_damage::mesh::BoundaryPart;
 use contact_damage::quadrature::QuadratureRule;
-use contact_damage::scheme::{ContactTreatment, Simulation, State};
+use contact_damage::scheme::{ContactTreatment, DamageEvolution, Simulation, State};
 use contact_damage::space::{strain, LagrangeSpace, Tabulation};
 use contact_damage::stability::StepLimit;
 use contact_damage::vtk::{write_boundary_vtu, write_pvd, write_vtu, CellData, PointData};
@@ -444,6 +444,7 @@ pub fn run<const D: usize>(
     let clock = Instant::now();
     let mut max_kkt = [0.0f64; 2];
     let mut force_cycle = ForceCycle::default();
+    let damage_evolves = setup.problem.settings.damage_evolution == DamageEvolution::Parabolic;
     let mut interrupted = false;
     if !options.quiet {
         println!(
@@ -547,7 +548,7 @@ pub fn run<const D: usize>(
             .write_all(row.csv_line().as_bytes())
             .and_then(|()| history.flush())
             .map_err(io_error("appending to", &history_path))?;
-        if pictures.contains(&n) {
+        if damage_evolves && pictures.contains(&n) {
             damage_svg(
                 &dir.join(damage_picture_file(n)),
                 &space,

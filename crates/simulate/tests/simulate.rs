@@ -895,3 +895,54 @@ fn resume_validates_the_saved_values_and_the_scheme() {
     assert!(error.contains("`scheme` changed"), "{error}");
     simulate::run_file(&implicit, &resume).unwrap();
 }
+
+/// `[scheme] damage = false`: a pure contact problem. The damage laws may be left out, no damage
+/// step is solved (β stays 1, no damage iterations), and no damage pictures are drawn; the same
+/// file with evolving damage is refused, naming the missing law.
+#[test]
+fn frozen_damage_runs_without_damage_laws_or_pictures() {
+    let dir = scratch("simulate-frozen-damage");
+    let text = std::fs::read_to_string(tiny_example(&dir)).unwrap();
+    let without_laws: String = text
+        .lines()
+        .filter(|line| !line.starts_with("damage_source") && !line.starts_with("damage_diffusion"))
+        .map(|line| format!("{line}\n"))
+        .collect();
+    assert_ne!(without_laws, text);
+    let refused = dir.join("refused.toml");
+    std::fs::write(&refused, &without_laws).unwrap();
+    let error = simulate::run_file(&refused, &quiet(&dir.join("refused")))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("key `laws.damage_source`") && error.contains("damage = false"),
+        "{error}"
+    );
+    let frozen = dir.join("frozen.toml");
+    std::fs::write(
+        &frozen,
+        format!("{without_laws}\n[scheme]\ndamage = false\n"),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    simulate::run_file(&frozen, &quiet(&out)).unwrap();
+    let state = read_saved_state(&out).unwrap();
+    assert!(state.damage.iter().all(|&beta| beta == 1.0));
+    let history = std::fs::read_to_string(out.join("history.csv")).unwrap();
+    let header: Vec<&str> = history.lines().next().unwrap().split(',').collect();
+    let column = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    for row in history.lines().skip(1) {
+        let fields: Vec<&str> = row.split(',').collect();
+        assert_eq!(fields[column("mean_damage")], "1");
+        assert_eq!(fields[column("damage_iterations")], "0");
+    }
+    let names: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|entry| entry.unwrap().file_name().into_string().unwrap())
+        .collect();
+    assert!(
+        !names.iter().any(|name| name.starts_with("damage_")),
+        "{names:?}"
+    );
+    assert!(names.iter().any(|name| name == "contact_history.svg"));
+}

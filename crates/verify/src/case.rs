@@ -257,7 +257,19 @@ impl<const D: usize> Case<D> {
         }
         let sides = parse_sides::<D>(FileKind::Case, origin, "domain.sides", &file.domain.sides)?;
         let constants = &file.constants;
-        let laws = file.laws.build::<D>(FileKind::Case, origin, constants)?;
+        if !file.scheme.damage {
+            return Err(case_error(
+                origin,
+                "scheme.damage",
+                "a manufactured case verifies the damage model (5.2): `damage = false` is for simulate problem files",
+            ));
+        }
+        let laws = file.laws.build::<D>(
+            FileKind::Case,
+            origin,
+            constants,
+            file.scheme.damage_evolution(),
+        )?;
 
         let exact_file = &file.exact;
         if exact_file.u.len() != D {
@@ -705,6 +717,23 @@ mod tests {
         assert!((case.laws.elasticity.stress(&strain, 0.5) - expected).norm() < 1e-14);
         let slope = strain * (2.0 * 2.0) + Tensor::<2>::identity() * (0.5 * strain.trace());
         assert!((case.laws.elasticity.damage_derivative(&strain, 0.5) - slope).norm() < 1e-14);
+    }
+
+    #[test]
+    fn case_rejects_frozen_damage_and_missing_damage_laws_naming_the_key() {
+        let frozen = case::<2>(
+            SLIP2D,
+            &[("[exact]", "[scheme]\ndamage = false\n\n[exact]")],
+        );
+        let message = frozen.err().expect("damage = false accepted").to_string();
+        assert!(message.contains("key `scheme.damage`"), "{message}");
+        let text: String = SLIP2D
+            .lines()
+            .filter(|line| !line.starts_with("damage_diffusion"))
+            .map(|line| format!("{line}\n"))
+            .collect();
+        let message = case::<2>(&text, &[]).err().expect("accepted").to_string();
+        assert!(message.contains("key `laws.damage_diffusion`"), "{message}");
     }
 
     #[test]
