@@ -34,11 +34,14 @@
 //! [`Expr::parse`] also compiles the tree into a [`Program`] (module [`compiled`]): a flat
 //! instruction list with common subexpressions shared, run by [`Expr::eval_compiled`] and
 //! [`Expr::eval_with`]. [`Expr::eval`] walks the tree; it is the reference the program is
-//! tested against and, measured on the built-in cases, still the faster of the two (their
-//! expressions share few subexpressions), so the harness calls it.
-//! Both apply the same operations in the same order (up to dual-by-`f64` operations for
-//! constant operands), so values are bitwise identical and derivatives agree wherever the
-//! operands are finite.
+//! tested against. Both apply the same operations in the same order (up to dual-by-`f64`
+//! operations for constant operands), so values are bitwise identical and derivatives agree
+//! wherever the operands are finite.
+//!
+//! The harness evaluates the exact fields of a case differently: a [`Tape`] (module
+//! [`derivative`]) differentiates the instructions symbolically, once per case, into one
+//! program per consumer, and [`Program::eval_batch`] (module [`batch`]) runs it instruction by
+//! instruction over columns of `f64` values at a batch of points.
 
 pub mod batch;
 pub mod compiled;

@@ -2,11 +2,11 @@
 //! list of SSA instructions over a register file, which is what is evaluated at every
 //! quadrature point.
 //!
-//! Why: the exact fields of a case are evaluated at every quadrature point of every step, on
-//! nested dual numbers (`Dual2Vec<Dual64, D>` for the source terms), where each operation
-//! costs tens of floating-point operations. Walking the tree repeats identical subtrees
-//! (`max(0, x - x_slip)` in several terms, `1 + t`, `cos(pi*y)`, …) and pays a recursive call
-//! per node. The program computes every distinct subexpression once.
+//! Why: the exact fields of a case are evaluated at every quadrature point of every step.
+//! Walking the tree repeats identical subtrees (`max(0, x - x_slip)` in several terms, `1 + t`,
+//! `cos(pi*y)`, …) and pays a recursive call per node. The program computes every distinct
+//! subexpression once. Besides the node kinds of the tree, three selection instructions
+//! (`MinSelect`, `MaxSelect`, `SignOf`) carry the derivatives of `min`, `max` and `abs`.
 //!
 //! - **Instructions** mirror the node kinds of the tree one to one, with the same semantics
 //!   (branch rules of `abs`/`min`/`max` by real part, NaN propagation, `powi`/`powf` for
@@ -30,11 +30,11 @@
 //!   the caller provides and that is reused between evaluations, or a per-thread buffer
 //!   ([`with_registers`]).
 //!
-//! Status (measured on `zones2d`, one thread): the program gives bitwise the same reports but
-//! is not yet faster than the tree walk (3.45–3.58 s against 3.24 s task clock): the built-in
-//! expressions share few subexpressions, and copying duals in and out of the register file
-//! costs about what the recursion did. [`Expr::eval`] therefore still walks the tree; the
-//! program is the basis for batched evaluation (one instruction over many points).
+//! Use: point by point on dual numbers, the program measured no faster than the tree walk
+//! on the built-in expressions (3.45–3.58 s against 3.24 s task clock on `zones2d`, one
+//! thread), which share few subexpressions. What made the harness fast is the combination of
+//! symbolic derivatives sharing their subexpressions on one tape ([`super::derivative`]) with
+//! batched `f64` evaluation ([`super::batch`]).
 
 use std::any::Any;
 use std::cell::RefCell;
