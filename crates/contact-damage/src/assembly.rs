@@ -1,5 +1,6 @@
-//! Parallel finite element assembly (rayon): element kernels for the velocity operator, the
-//! damage operator and the load vectors, and the scatter of element contributions.
+//! Finite element assembly: element kernels for the velocity operator and the
+//! damage operator, and point-wise facet integrals (the scheme's load vectors are assembled by
+//! [`crate::loads`] from quadrature data computed once per mesh).
 //!
 //! Matrices are assembled against a [`SparsityPattern`](crate::linalg::SparsityPattern) built once per mesh: a numeric assembly
 //! computes every element matrix in parallel into one flat array and sums it into the pattern.
@@ -7,7 +8,6 @@
 use crate::laws::{Tensor, Viscosity};
 use crate::space::{CellGeometry, FacetRule, LagrangeSpace, Tabulation};
 use nalgebra::SVector;
-use rayon::prelude::*;
 
 /// Physical basis gradients ∇φ_a = J^{-T} ∇̂φ_a at point q of a tabulation.
 #[inline]
@@ -120,33 +120,6 @@ pub fn damage_element_matrix<const D: usize>(
             }
         }
     }
-}
-
-/// Computes per-cell local vectors in parallel with `kernel(cell, local)` and sums them into a
-/// global vector of `components` values per node (node-major).
-pub fn assemble_cell_vector<const D: usize, K>(
-    space: &LagrangeSpace<D>,
-    components: usize,
-    kernel: K,
-) -> Vec<f64>
-where
-    K: Fn(usize, &mut [f64]) + Sync,
-{
-    let local = space.nodes_per_cell() * components;
-    let mut locals = vec![0.0; space.mesh().num_cells() * local];
-    locals
-        .par_chunks_mut(local)
-        .enumerate()
-        .for_each(|(cell, out)| kernel(cell, out));
-    let mut global = vec![0.0; space.num_nodes() * components];
-    for (cell, chunk) in locals.chunks(local).enumerate() {
-        for (a, &node) in space.cell_nodes(cell).iter().enumerate() {
-            for i in 0..components {
-                global[node * components + i] += chunk[a * components + i];
-            }
-        }
-    }
-    global
 }
 
 /// Adds ∫_F g·φ_a dΓ over the boundary facets F selected by `select`, for a `components`-valued
