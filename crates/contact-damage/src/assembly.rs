@@ -1,5 +1,6 @@
-//! Parallel finite element assembly (rayon): element kernels for the velocity operator, the
-//! damage operator and the load vectors, and the scatter of element contributions.
+//! Finite element assembly: element kernels for the velocity operator and the
+//! damage operator, and point-wise facet integrals (the scheme's load vectors are assembled by
+//! [`crate::loads`] from quadrature data computed once per mesh).
 //!
 //! Matrices are assembled against a [`SparsityPattern`](crate::linalg::SparsityPattern) built once per mesh: a numeric assembly
 //! computes every element matrix in parallel into one flat array and sums it into the pattern.

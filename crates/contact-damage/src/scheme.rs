@@ -3,16 +3,13 @@
 //! depend only on step n−1 — then update u_n = u_{n−1} + k v_n (5.4)–(5.5). Initial data are
 //! interpolated, u_0 = Π^h u0, β_0 = Π^h β0 (5.3), (5.30).
 
-use crate::assembly::{
-    add_facet_integrals, assemble_cell_vector, field_strain, physical_gradients,
-};
 use crate::contact::{ContactNodes, ContactStatus};
 use crate::damage::{DamageOperator, DamageSolution};
 use crate::laws::{ContactLaw, DamageSource, Elasticity, Viscosity};
+use crate::loads::LoadQuadrature;
 use crate::mesh::{BoundaryPart, Mesh};
 use crate::obstacle::{BoxQpSettings, BoxQpStats};
-use crate::quadrature::QuadratureRule;
-use crate::space::{LagrangeSpace, Tabulation};
+use crate::space::LagrangeSpace;
 use crate::stability::{step_limit, StepLimit};
 use crate::velocity::{
     ImplicitNormalCompliance, VelocityData, VelocityOperator, VelocitySettings, VelocitySolution,
@@ -22,20 +19,11 @@ use crate::{Error, Result};
 use nalgebra::SVector;
 use std::sync::Arc;
 
-/// A vector field of (x, t): f0.
-pub type VectorField<const D: usize> = Arc<dyn Fn(&[f64; D], f64) -> [f64; D] + Send + Sync>;
-/// A vector boundary datum of (x, t, outward normal): f2, f3.
-pub type BoundaryVectorField<const D: usize> =
-    Arc<dyn Fn(&[f64; D], f64, &[f64; D]) -> [f64; D] + Send + Sync>;
-/// A scalar field of (x, t): q.
-pub type ScalarField<const D: usize> = Arc<dyn Fn(&[f64; D], f64) -> f64 + Send + Sync>;
+pub use crate::fields::{BoundaryScalarField, BoundaryVectorField, ScalarField, VectorField};
 /// A time-independent scalar field of x: g, β0.
 pub type StaticScalarField<const D: usize> = Arc<dyn Fn(&[f64; D]) -> f64 + Send + Sync>;
 /// A time-independent vector field of x: u0.
 pub type StaticVectorField<const D: usize> = Arc<dyn Fn(&[f64; D]) -> [f64; D] + Send + Sync>;
-/// A scalar boundary datum of (x, t, outward normal): the damage flux κ ∂β/∂ν.
-pub type BoundaryScalarField<const D: usize> =
-    Arc<dyn Fn(&[f64; D], f64, &[f64; D]) -> f64 + Send + Sync>;
 
 /// The constitutive laws of Problem P (§2) and the damage diffusion κ of (2.2).
 #[derive(Clone)]
@@ -195,6 +183,17 @@ pub struct RunSummary {
     pub steps_with_damage_bound: [usize; 2],
 }
 
+/// Wall time spent so far in the parts of the steps (for benchmarks; a few clock reads per step).
+#[derive(Debug, Clone, Copy, Default)]
+pub struct StepTimings {
+    /// Load vectors of (5.1) and (5.2), the data fields' evaluation included.
+    pub loads: std::time::Duration,
+    /// The velocity step (5.1) (concurrent with the damage step when threads are free).
+    pub velocity: std::time::Duration,
+    /// The damage step (5.2).
+    pub damage: std::time::Duration,
+}
+
 /// A running simulation of Problem P_V^hk.
 pub struct Simulation<const D: usize> {
     problem: Problem<D>,
@@ -203,9 +202,10 @@ pub struct Simulation<const D: usize> {
     velocity: VelocityOperator<D>,
     /// None when the damage is frozen ([`DamageEvolution::Frozen`]).
     damage: Option<DamageOperator<D>>,
-    load_tabulation: Tabulation<D>,
+    loads: LoadQuadrature<D>,
     gap: Vec<f64>,
     state: State,
+    timings: StepTimings,
 }
 
 impl<const D: usize> Simulation<D> {
@@ -247,10 +247,7 @@ impl<const D: usize> Simulation<D> {
             )?),
             DamageEvolution::Frozen => None,
         };
-        let load_tabulation = Tabulation::cell_rule(
-            space.element(),
-            &QuadratureRule::<D>::simplex(2 * space.degree() + 2),
-        );
+        let loads = LoadQuadrature::new(&space);
         let gap: Vec<f64> = contact
             .nodes
             .iter()
@@ -308,10 +305,16 @@ impl<const D: usize> Simulation<D> {
             contact,
             velocity,
             damage,
-            load_tabulation,
+            loads,
             gap,
             state,
+            timings: StepTimings::default(),
         })
+    }
+
+    /// Wall time spent so far in the loads and the two solves of the steps.
+    pub fn timings(&self) -> &StepTimings {
+        &self.timings
     }
 
     /// The current state.
@@ -362,88 +365,13 @@ impl<const D: usize> Simulation<D> {
     /// Loads of step n at t_n from the state n−1: the velocity load (Cartesian, node-major) and
     /// the damage source ⟨φ(ε(u_{n−1}), β_{n−1}) + q(t_n), φ_a⟩ + ∫_Γ κ∂β/∂ν φ_a.
     pub fn step_loads(&self, time: f64) -> (Vec<f64>, Vec<f64>) {
-        let data = &self.problem.data;
-        let model = &self.problem.model;
-        let space = &*self.space;
-        let tab = &self.load_tabulation;
-        let n = tab.nodes;
-        let displacement = &self.state.displacement;
-        let damage = &self.state.damage;
-        let combined = assemble_cell_vector(space, D + 1, |cell, out| {
-            out.fill(0.0);
-            let geometry = space.geometry(cell);
-            let nodes = space.cell_nodes(cell);
-            let mut grads = [SVector::<f64, D>::zeros(); 10];
-            for q in 0..tab.len() {
-                physical_gradients(geometry, tab, q, &mut grads);
-                let values = &tab.values[q * n..(q + 1) * n];
-                let strain = field_strain(nodes, &grads[..n], displacement);
-                let beta: f64 = nodes
-                    .iter()
-                    .zip(values)
-                    .map(|(&node, v)| damage[node] * v)
-                    .sum();
-                let weight = tab.weights[q] * geometry.det;
-                let x = geometry.point(&tab.points[q]);
-                let stress = model.elasticity.stress(&strain, beta);
-                let force = data.body_force.as_ref().map(|f| f(&x, time));
-                let mut source = model.damage_source.source(&strain, beta);
-                if let Some(supply) = &data.damage_supply {
-                    source += supply(&x, time);
-                }
-                for a in 0..n {
-                    let internal = stress * grads[a];
-                    for i in 0..D {
-                        let mut value = -internal[i];
-                        if let Some(f) = &force {
-                            value += f[i] * values[a];
-                        }
-                        out[a * (D + 1) + i] += weight * value;
-                    }
-                    out[a * (D + 1) + D] += weight * source * values[a];
-                }
-            }
-        });
-        let mesh = space.mesh();
-        let mut velocity_load = vec![0.0; space.num_nodes() * D];
-        let mut damage_source = vec![0.0; space.num_nodes()];
-        for node in 0..space.num_nodes() {
-            velocity_load[node * D..node * D + D]
-                .copy_from_slice(&combined[node * (D + 1)..node * (D + 1) + D]);
-            damage_source[node] = combined[node * (D + 1) + D];
-        }
-        let degree = 2 * space.degree() + 2;
-        if let Some(traction) = &data.traction {
-            add_facet_integrals(
-                space,
-                degree,
-                D,
-                |f| mesh.facet_part(f) == BoundaryPart::Neumann,
-                |x, normal, out| out.copy_from_slice(&traction(x, time, normal)),
-                &mut velocity_load,
-            );
-        }
-        if let Some(traction) = &data.contact_traction {
-            add_facet_integrals(
-                space,
-                degree,
-                D,
-                |f| mesh.facet_part(f) == BoundaryPart::Contact,
-                |x, normal, out| out.copy_from_slice(&traction(x, time, normal)),
-                &mut velocity_load,
-            );
-        }
-        if let Some(flux) = &data.damage_flux {
-            add_facet_integrals(
-                space,
-                degree,
-                1,
-                |_| true,
-                |x, normal, out| out[0] = flux(x, time, normal),
-                &mut damage_source,
-            );
-        }
-        (velocity_load, damage_source)
+        self.loads.assemble(
+            &self.space,
+            &self.problem.model,
+            &self.problem.data,
+            time,
+            &self.state,
+        )
     }
 
     /// The step limit of the explicit terms of (5.1) at the current state ([`crate::stability`]):
@@ -476,7 +404,9 @@ impl<const D: usize> Simulation<D> {
     pub fn step(&mut self) -> Result<(VelocitySolution, DamageSolution, Vec<f64>, Vec<f64>)> {
         let n = self.state.step + 1;
         let time = n as f64 * self.time_step();
+        let started = std::time::Instant::now();
         let (velocity_load, damage_source) = self.step_loads(time);
+        self.timings.loads += started.elapsed();
         let penetrations = self.penetrations();
         let law = &self.problem.model.contact;
         let normal_pressure: Vec<f64> = penetrations
@@ -503,16 +433,26 @@ impl<const D: usize> Simulation<D> {
         let previous_damage = &self.state.damage;
         let velocity_op = &mut self.velocity;
         let damage_op = &mut self.damage;
-        let (velocity, damage) = rayon::join(
-            || velocity_op.solve(&data, previous_velocity, &settings),
-            || match damage_op {
-                Some(operator) => operator.solve(&damage_source, previous_damage),
-                None => Ok(DamageSolution {
-                    damage: previous_damage.clone(),
-                    stats: BoxQpStats::default(),
-                }),
+        let ((velocity, velocity_time), (damage, damage_time)) = rayon::join(
+            || {
+                let started = std::time::Instant::now();
+                let velocity = velocity_op.solve(&data, previous_velocity, &settings);
+                (velocity, started.elapsed())
+            },
+            || {
+                let started = std::time::Instant::now();
+                let damage = match damage_op {
+                    Some(operator) => operator.solve(&damage_source, previous_damage),
+                    None => Ok(DamageSolution {
+                        damage: previous_damage.clone(),
+                        stats: BoxQpStats::default(),
+                    }),
+                };
+                (damage, started.elapsed())
             },
         );
+        self.timings.velocity += velocity_time;
+        self.timings.damage += damage_time;
         let velocity = velocity?;
         let damage = damage?;
         let k = self.time_step();

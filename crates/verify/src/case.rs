@@ -5,6 +5,9 @@
 //! A bad case file gets an error naming the file, the key and the problem.
 
 use crate::expr::Expr;
+use crate::manufactured::data::{
+    BodyForce, ContactTraction, DamageFlux, DamageSupply, ExactPrograms, ManufacturedData, Traction,
+};
 use crate::manufactured::{value, ExactSolution, Laws};
 use crate::VerifyError;
 use contact_damage::mesh::{BoundaryPart, Mesh};
@@ -136,6 +139,8 @@ pub struct Case<const D: usize> {
     pub laws: Laws<D>,
     /// Exact fields.
     pub exact: ExactSolution<D>,
+    /// The exact fields and their derivatives compiled once ([`ExactPrograms`]).
+    pub programs: Arc<ExactPrograms<D>>,
 }
 
 /// Checks the study definitions before anything runs: keys `order1`/`order2`; level studies with
@@ -341,6 +346,7 @@ impl<const D: usize> Case<D> {
             origin: origin.to_string(),
             sides,
             laws,
+            programs: Arc::new(ExactPrograms::new(&exact)),
             exact,
             file,
         };
@@ -482,22 +488,18 @@ impl<const D: usize> Case<D> {
     ) -> Result<Problem<D>, VerifyError> {
         let laws = self.laws.clone();
         let exact = Arc::new(self.exact.clone());
-        let (e0, l0) = (exact.clone(), laws.clone());
-        let (e2, l2) = (exact.clone(), laws.clone());
-        let (e3, l3) = (exact.clone(), laws.clone());
-        let (eq, lq) = (exact.clone(), laws.clone());
-        let (ef, lf) = (exact.clone(), laws.clone());
+        let data = ManufacturedData::new(self.programs.clone(), laws.clone());
         let (eu, eb, eg) = (exact.clone(), exact.clone(), exact.clone());
         Ok(Problem {
             mesh: Arc::new(self.mesh(cells)?),
             degree,
             model: laws.clone(),
             data: Data {
-                body_force: Some(Arc::new(move |x, t| e0.body_force(&l0, x, t))),
-                traction: Some(Arc::new(move |x, t, n| e2.traction(&l2, x, t, n))),
-                contact_traction: Some(Arc::new(move |x, t, n| e3.contact_traction(&l3, x, t, n))),
-                damage_supply: Some(Arc::new(move |x, t| eq.damage_supply(&lq, x, t))),
-                damage_flux: Some(Arc::new(move |x, t, n| ef.damage_flux(&lf, x, t, n))),
+                body_force: Some(Arc::new(BodyForce(data.clone()))),
+                traction: Some(Arc::new(Traction(data.clone()))),
+                contact_traction: Some(Arc::new(ContactTraction(data.clone()))),
+                damage_supply: Some(Arc::new(DamageSupply(data.clone()))),
+                damage_flux: Some(Arc::new(DamageFlux(data))),
                 gap: Arc::new(move |x| value(&eg.gap, x, 0.0)),
                 initial_displacement: Arc::new(move |x| {
                     std::array::from_fn(|i| value(&eu.displacement[i], x, 0.0))

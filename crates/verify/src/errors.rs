@@ -9,15 +9,18 @@
 //!
 //! Integrals use a cell quadrature of degree 2l + 3 against the exact fields, or, for a
 //! temporal self-convergence study, against a reference discrete solution on the same mesh.
+//! The exact fields are evaluated by the case's compiled program over all quadrature points of
+//! a chunk of cells at once; chunks run in parallel and their sums are added in chunk order, so
+//! the errors do not depend on the number of threads.
 
-use crate::manufactured::ExactSolution;
+use crate::manufactured::data::ExactPrograms;
+use crate::manufactured::programs::{Quantity, BATCH};
 use contact_damage::assembly::{field_strain, physical_gradients};
 use contact_damage::laws::Tensor;
 use contact_damage::quadrature::QuadratureRule;
 use contact_damage::scheme::State;
 use contact_damage::space::{LagrangeSpace, Tabulation};
-use nalgebra::{Const, SMatrix, SVector};
-use num_dual::{Dual64, DualVec};
+use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
 use serde::Serialize;
 use std::sync::Arc;
@@ -63,54 +66,17 @@ impl ErrorComponents {
     }
 }
 
-/// Exact fields at one quadrature point and time.
-#[derive(Debug, Clone, Copy)]
-struct ExactPoint<const D: usize> {
-    displacement_gradient: SMatrix<f64, D, D>,
-    velocity_gradient: SMatrix<f64, D, D>,
-    damage: f64,
-    damage_gradient: SVector<f64, D>,
-}
-
-fn exact_point<const D: usize>(exact: &ExactSolution<D>, x: &[f64; D], t: f64) -> ExactPoint<D> {
-    let point = SVector::<Dual64, D>::from_fn(|i, _| Dual64::from(x[i]));
-    let eval = |expr: &crate::expr::Expr| {
-        num_dual::gradient(
-            |p: SVector<DualVec<Dual64, Const<D>>, D>| {
-                let time = DualVec::from_re(Dual64::new(t, 1.0));
-                let zero = DualVec::from_re(Dual64::from(0.0));
-                let vars = [p[0], p[1], if D == 3 { p[D - 1] } else { zero }, time];
-                expr.eval(&vars)
-            },
-            &point,
-        )
-    };
-    let mut displacement_gradient = SMatrix::<f64, D, D>::zeros();
-    let mut velocity_gradient = SMatrix::<f64, D, D>::zeros();
-    for i in 0..D {
-        let (_, gradient) = eval(&exact.displacement[i]);
-        for j in 0..D {
-            displacement_gradient[(i, j)] = gradient[j].re;
-            velocity_gradient[(i, j)] = gradient[j].eps;
-        }
-    }
-    let (beta, beta_gradient) = eval(&exact.damage);
-    ExactPoint {
-        displacement_gradient,
-        velocity_gradient,
-        damage: beta.re,
-        damage_gradient: beta_gradient.map(|g| g.re),
-    }
-}
-
 fn sym<const D: usize>(m: &SMatrix<f64, D, D>) -> Tensor<D> {
     (m + m.transpose()) * 0.5
 }
 
+/// Cells per parallel task of the error integrals.
+const CHUNK_CELLS: usize = 32;
+
 /// What the discrete solution is compared with.
 pub enum Reference<const D: usize> {
-    /// The manufactured exact solution.
-    Exact(Arc<ExactSolution<D>>),
+    /// The manufactured exact solution (its compiled programs).
+    Exact(Arc<ExactPrograms<D>>),
     /// A discrete solution on the same space; `states[i]` is the state at time `i·T/(states.len()−1)`.
     Discrete(Arc<Vec<State>>),
 }
@@ -119,6 +85,8 @@ pub enum Reference<const D: usize> {
 pub struct ErrorTracker<const D: usize> {
     reference: Reference<D>,
     tabulation: Tabulation<D>,
+    /// Physical quadrature points, cell-major.
+    points: Vec<[f64; D]>,
     time_step: f64,
     steps: usize,
     /// Reference ε(u) at the quadrature points at the previous time.
@@ -139,9 +107,16 @@ impl<const D: usize> ErrorTracker<D> {
     ) -> Self {
         let rule = QuadratureRule::<D>::simplex(2 * space.degree() + 3);
         let tabulation = Tabulation::cell_rule(space.element(), &rule);
+        let points = (0..space.mesh().num_cells())
+            .flat_map(|cell| {
+                let geometry = space.geometry(cell);
+                tabulation.points.iter().map(|xi| geometry.point(xi))
+            })
+            .collect();
         let mut tracker = Self {
             reference,
             tabulation,
+            points,
             time_step,
             steps,
             previous_strain: Vec::new(),
@@ -161,23 +136,29 @@ impl<const D: usize> ErrorTracker<D> {
         tracker
     }
 
+    /// ε(u(t)) at every quadrature point.
     fn exact_strains(
         &self,
         space: &LagrangeSpace<D>,
-        exact: &ExactSolution<D>,
+        exact: &ExactPrograms<D>,
         t: f64,
     ) -> Vec<Tensor<D>> {
         let nq = self.tabulation.len();
         let mut strains = vec![Tensor::<D>::zeros(); space.mesh().num_cells() * nq];
         strains
-            .par_chunks_mut(nq)
+            .par_chunks_mut(CHUNK_CELLS * nq)
             .enumerate()
-            .for_each(|(cell, out)| {
-                let geometry = space.geometry(cell);
-                for (q, slot) in out.iter_mut().enumerate() {
-                    let x = geometry.point(&self.tabulation.points[q]);
-                    *slot = sym(&exact_point(exact, &x, t).displacement_gradient);
-                }
+            .for_each(|(chunk, out)| {
+                let first = chunk * CHUNK_CELLS * nq;
+                let points = &self.points[first..first + out.len()];
+                exact.errors.for_batches(points, t, |offset, columns| {
+                    let gradient: [[&[f64]; D]; D] = std::array::from_fn(|i| {
+                        std::array::from_fn(|j| columns.get(Quantity::Gradient(i, j)))
+                    });
+                    for (p, slot) in out[offset..].iter_mut().take(BATCH).enumerate() {
+                        *slot = sym(&SMatrix::from_fn(|i, j| gradient[i][j][p]));
+                    }
+                });
             });
         strains
     }
@@ -204,74 +185,101 @@ impl<const D: usize> ErrorTracker<D> {
             Reference::Exact(e) => Some(e.clone()),
             Reference::Discrete(_) => None,
         };
-        let sums = new_strain
-            .par_chunks_mut(nq)
+        let points = &self.points;
+        let chunk_sums: Vec<[f64; 5]> = new_strain
+            .par_chunks_mut(CHUNK_CELLS * nq)
             .enumerate()
-            .map(|(cell, strain_out)| {
-                let geometry = space.geometry(cell);
-                let nodes = space.cell_nodes(cell);
-                let mut grads = [SVector::<f64, D>::zeros(); 10];
+            .map(|(chunk, strain_out)| {
+                let first_cell = chunk * CHUNK_CELLS;
+                let cells = strain_out.len() / nq;
+                // The exact ∇u, ∇u̇, β, ∇β at every quadrature point of the chunk.
+                let mut exact_points = Vec::new();
+                if let Some(exact) = &exact {
+                    let range = first_cell * nq..(first_cell + cells) * nq;
+                    exact_points.reserve(range.len());
+                    exact.errors.for_batches(&points[range], t, |_, columns| {
+                        let g: [[&[f64]; D]; D] = std::array::from_fn(|i| {
+                            std::array::from_fn(|j| columns.get(Quantity::Gradient(i, j)))
+                        });
+                        let r: [[&[f64]; D]; D] = std::array::from_fn(|i| {
+                            std::array::from_fn(|j| columns.get(Quantity::RateGradient(i, j)))
+                        });
+                        let beta = columns.get(Quantity::Damage);
+                        let b: [&[f64]; D] =
+                            std::array::from_fn(|j| columns.get(Quantity::DamageGradient(j)));
+                        for p in 0..beta.len() {
+                            exact_points.push((
+                                sym(&SMatrix::<f64, D, D>::from_fn(|i, j| g[i][j][p])),
+                                sym(&SMatrix::<f64, D, D>::from_fn(|i, j| r[i][j][p])),
+                                beta[p],
+                                SVector::<f64, D>::from_fn(|j, _| b[j][p]),
+                            ));
+                        }
+                    });
+                }
                 let mut local = [0.0; 5];
-                for q in 0..nq {
-                    physical_gradients(geometry, tab, q, &mut grads);
-                    let values = &tab.values[q * n_nodes..(q + 1) * n_nodes];
-                    let weight = tab.weights[q] * geometry.det;
-                    let strain_h = field_strain(nodes, &grads[..n_nodes], &state.displacement);
-                    let rate_h = field_strain(nodes, &grads[..n_nodes], &state.velocity);
-                    let beta_h: f64 = nodes
-                        .iter()
-                        .zip(values)
-                        .map(|(&node, v)| state.damage[node] * v)
-                        .sum();
-                    let grad_beta_h: SVector<f64, D> = nodes
-                        .iter()
-                        .enumerate()
-                        .map(|(a, &node)| grads[a] * state.damage[node])
-                        .fold(SVector::<f64, D>::zeros(), |acc, g| acc + g);
-                    let (strain, quotient, rate, beta, grad_beta) = if let Some(exact) = &exact {
-                        let x = geometry.point(&tab.points[q]);
-                        let point = exact_point(exact, &x, t);
-                        let strain = sym(&point.displacement_gradient);
-                        let quotient = (strain - previous_strain[cell * nq + q]) / k;
-                        (
-                            strain,
-                            quotient,
-                            Some(sym(&point.velocity_gradient)),
-                            point.damage,
-                            point.damage_gradient,
-                        )
-                    } else {
-                        let reference = reference_state.expect("discrete reference state");
-                        let strain =
-                            field_strain(nodes, &grads[..n_nodes], &reference.displacement);
-                        let previous =
-                            field_strain(nodes, &grads[..n_nodes], previous_displacement);
-                        let beta: f64 = nodes
+                let mut grads = [SVector::<f64, D>::zeros(); 10];
+                for c in 0..cells {
+                    let cell = first_cell + c;
+                    let geometry = space.geometry(cell);
+                    let nodes = space.cell_nodes(cell);
+                    for q in 0..nq {
+                        physical_gradients(geometry, tab, q, &mut grads);
+                        let values = &tab.values[q * n_nodes..(q + 1) * n_nodes];
+                        let weight = tab.weights[q] * geometry.det;
+                        let strain_h = field_strain(nodes, &grads[..n_nodes], &state.displacement);
+                        let rate_h = field_strain(nodes, &grads[..n_nodes], &state.velocity);
+                        let beta_h: f64 = nodes
                             .iter()
                             .zip(values)
-                            .map(|(&node, v)| reference.damage[node] * v)
+                            .map(|(&node, v)| state.damage[node] * v)
                             .sum();
-                        let grad_beta = nodes
+                        let grad_beta_h: SVector<f64, D> = nodes
                             .iter()
                             .enumerate()
-                            .map(|(a, &node)| grads[a] * reference.damage[node])
+                            .map(|(a, &node)| grads[a] * state.damage[node])
                             .fold(SVector::<f64, D>::zeros(), |acc, g| acc + g);
-                        (strain, (strain - previous) / k, None, beta, grad_beta)
-                    };
-                    strain_out[q] = strain;
-                    local[0] += weight * (strain - strain_h).norm_squared();
-                    local[1] += weight * (quotient - rate_h).norm_squared();
-                    local[2] += weight * (beta - beta_h).powi(2);
-                    local[3] += weight * (grad_beta - grad_beta_h).norm_squared();
-                    if let Some(rate) = rate {
-                        local[4] += weight * (rate - rate_h).norm_squared();
-                    } else {
-                        local[4] = f64::NAN;
+                        let (strain, quotient, rate, beta, grad_beta) = if exact.is_some() {
+                            let (strain, rate, beta, grad_beta) = exact_points[c * nq + q];
+                            let quotient = (strain - previous_strain[cell * nq + q]) / k;
+                            (strain, quotient, Some(rate), beta, grad_beta)
+                        } else {
+                            let reference = reference_state.expect("discrete reference state");
+                            let strain =
+                                field_strain(nodes, &grads[..n_nodes], &reference.displacement);
+                            let previous =
+                                field_strain(nodes, &grads[..n_nodes], previous_displacement);
+                            let beta: f64 = nodes
+                                .iter()
+                                .zip(values)
+                                .map(|(&node, v)| reference.damage[node] * v)
+                                .sum();
+                            let grad_beta = nodes
+                                .iter()
+                                .enumerate()
+                                .map(|(a, &node)| grads[a] * reference.damage[node])
+                                .fold(SVector::<f64, D>::zeros(), |acc, g| acc + g);
+                            (strain, (strain - previous) / k, None, beta, grad_beta)
+                        };
+                        strain_out[c * nq + q] = strain;
+                        local[0] += weight * (strain - strain_h).norm_squared();
+                        local[1] += weight * (quotient - rate_h).norm_squared();
+                        local[2] += weight * (beta - beta_h).powi(2);
+                        local[3] += weight * (grad_beta - grad_beta_h).norm_squared();
+                        if let Some(rate) = rate {
+                            local[4] += weight * (rate - rate_h).norm_squared();
+                        } else {
+                            local[4] = f64::NAN;
+                        }
                     }
                 }
                 local
             })
-            .reduce(|| [0.0; 5], |a, b| std::array::from_fn(|i| a[i] + b[i]));
+            .collect();
+        // In chunk order: the same sums for any number of threads.
+        let sums = chunk_sums
+            .iter()
+            .fold([0.0; 5], |a, b| std::array::from_fn(|i| a[i] + b[i]));
         self.errors.displacement = self.errors.displacement.max(sums[0].sqrt());
         self.errors.difference_quotient = self.errors.difference_quotient.max(sums[1].sqrt());
         self.errors.damage = self.errors.damage.max(sums[2].sqrt());

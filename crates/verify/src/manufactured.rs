@@ -2,9 +2,16 @@
 //! the data that make them exact — f0, f2, f3, q and the damage flux — derived by automatic
 //! differentiation (num-dual) and the chain rule through the solver's constitutive laws.
 //!
-//! One nested dual evaluation, `Dual2Vec<Dual64, D>` (a second-order dual in space over a
-//! first-order dual in time), yields u, u̇, ∇u, ∇u̇, ∇²u and ∇²u̇ at once: no derivative is
-//! written by hand.
+//! The harness evaluates the exact fields and their derivatives with programs compiled once per
+//! case by symbolic differentiation ([`programs`]), over batches of quadrature points, and
+//! applies the chain rule through the laws per point on `f64` ([`data`]). The point-by-point
+//! functions here evaluate the same derivatives by one nested dual evaluation of the syntax
+//! tree, `Dual2Vec<Dual64, D>` (a second-order dual in space over a first-order dual in time):
+//! the reference the compiled path is tested against. No derivative is written by hand on
+//! either path, and both share the chain-rule functions (`*_at`).
+
+pub mod data;
+pub mod programs;
 
 use crate::expr::Expr;
 use contact_damage::laws::Tensor;
@@ -144,60 +151,17 @@ impl<const D: usize> ExactSolution<D> {
 
     /// σ = 𝒜ε(u̇) + G(ε(u), β) at (x, t) (2.1).
     pub fn stress(&self, laws: &Laws<D>, state: &PointState<D>) -> Tensor<D> {
-        laws.viscosity.stress(&symmetric(&state.velocity_gradient))
-            + laws
-                .elasticity
-                .stress(&symmetric(&state.displacement_gradient), state.damage)
+        stress_at(laws, state)
     }
 
-    /// f0 = −Div σ by the chain rule: ∂_j σ = 𝒜'(ε(u̇))[∂_j ε(u̇)] + ∂_ε G[∂_j ε(u)] + ∂_β G ∂_j β.
+    /// f0 = −Div σ at (x, t) (tree evaluation; see [`body_force_at`]).
     pub fn body_force(&self, laws: &Laws<D>, x: &[f64; D], t: f64) -> [f64; D] {
-        let state = self.point_state(x, t);
-        let rate = symmetric(&state.velocity_gradient);
-        let strain = symmetric(&state.displacement_gradient);
-        let beta = state.damage;
-        let damage_slope = laws.elasticity.damage_derivative(&strain, beta);
-        let mut divergence = SVector::<f64, D>::zeros();
-        for j in 0..D {
-            let d_sigma = laws
-                .viscosity
-                .tangent(&rate, &symmetric(&state.velocity_second[j]))
-                + laws.elasticity.strain_derivative(
-                    &strain,
-                    beta,
-                    &symmetric(&state.displacement_second[j]),
-                )
-                + damage_slope * state.damage_gradient[j];
-            for i in 0..D {
-                divergence[i] += d_sigma[(i, j)];
-            }
-        }
-        std::array::from_fn(|i| -divergence[i])
+        body_force_at(laws, &self.point_state(x, t))
     }
 
-    /// f2 = σν on Γ2 (2.6).
+    /// f2 = σν on Γ2 (2.6) (tree evaluation).
     pub fn traction(&self, laws: &Laws<D>, x: &[f64; D], t: f64, normal: &[f64; D]) -> [f64; D] {
-        let state = self.point_state(x, t);
-        let sigma_n = self.stress(laws, &state) * SVector::<f64, D>::from_column_slice(normal);
-        std::array::from_fn(|i| sigma_n[i])
-    }
-
-    /// The friction direction ξ̂ of SPEC §4: u̇_τ/|u̇_τ| where the body slips, else the stick field ξ_τ.
-    pub fn friction_direction(
-        &self,
-        state: &PointState<D>,
-        x: &[f64; D],
-        t: f64,
-        normal: &SVector<f64, D>,
-    ) -> SVector<f64, D> {
-        let slip = state.velocity - normal * state.velocity.dot(normal);
-        let speed = slip.norm();
-        if speed > 0.0 {
-            slip / speed
-        } else {
-            let xi = SVector::<f64, D>::from_fn(|i, _| value(&self.stick_traction[i], x, t));
-            xi - normal * xi.dot(normal)
-        }
+        traction_at(laws, &self.point_state(x, t), normal)
     }
 
     /// Penetration r = u_ν − g at a point of Γ3.
@@ -210,7 +174,7 @@ impl<const D: usize> ExactSolution<D> {
         state.displacement.dot(normal) - value(&self.gap, x, 0.0)
     }
 
-    /// f3 = σν + p_ν(u_ν − g) ν + p_τ(u_ν − g) ξ̂ on Γ3 (SPEC §4).
+    /// f3 = σν + p_ν(u_ν − g) ν + p_τ(u_ν − g) ξ̂ on Γ3 (SPEC §4) (tree evaluation).
     pub fn contact_traction(
         &self,
         laws: &Laws<D>,
@@ -219,15 +183,11 @@ impl<const D: usize> ExactSolution<D> {
         normal: &[f64; D],
     ) -> [f64; D] {
         let state = self.point_state(x, t);
-        let nu = SVector::<f64, D>::from_column_slice(normal);
-        let r = self.penetration(&state, x, &nu);
-        let f3 = self.stress(laws, &state) * nu
-            + nu * laws.contact.normal_pressure(r)
-            + self.friction_direction(&state, x, t, &nu) * laws.contact.friction_bound(r);
-        std::array::from_fn(|i| f3[i])
+        let xi = SVector::<f64, D>::from_fn(|i, _| value(&self.stick_traction[i], x, t));
+        contact_traction_at(laws, &state, &xi, value(&self.gap, x, 0.0), normal)
     }
 
-    /// q = β̇ − κΔβ + η − φ(ε(u), β) (SPEC §4). Needs only the jet of β and ∇u.
+    /// q = β̇ − κΔβ + η − φ(ε(u), β) (SPEC §4) (tree evaluation).
     pub fn damage_supply(&self, laws: &Laws<D>, x: &[f64; D], t: f64) -> f64 {
         let damage = jet(&self.damage, x, t);
         let mut gradient = SMatrix::<f64, D, D>::zeros();
@@ -235,15 +195,128 @@ impl<const D: usize> ExactSolution<D> {
             let (_, row) = value_gradient(component, x, t);
             gradient.set_row(i, &row.transpose());
         }
-        let strain = symmetric(&gradient);
-        damage.rate - laws.damage_diffusion * damage.hessian.trace()
-            + value(&self.damage_multiplier, x, t)
-            - laws.damage_source.source(&strain, damage.value)
+        damage_supply_at(
+            laws,
+            &DamageJet {
+                value: damage.value,
+                rate: damage.rate,
+                laplacian: damage.hessian.trace(),
+                multiplier: value(&self.damage_multiplier, x, t),
+            },
+            &gradient,
+        )
     }
 
-    /// κ ∂β/∂ν on Γ (Neumann datum of the damage equation).
+    /// κ ∂β/∂ν on Γ (Neumann datum of the damage equation) (tree evaluation).
     pub fn damage_flux(&self, laws: &Laws<D>, x: &[f64; D], t: f64, normal: &[f64; D]) -> f64 {
         let (_, gradient) = value_gradient(&self.damage, x, t);
-        laws.damage_diffusion * gradient.dot(&SVector::<f64, D>::from_column_slice(normal))
+        damage_flux_at(laws, &gradient, normal)
     }
+}
+
+/// σ = 𝒜ε(u̇) + G(ε(u), β) (2.1).
+pub fn stress_at<const D: usize>(laws: &Laws<D>, state: &PointState<D>) -> Tensor<D> {
+    laws.viscosity.stress(&symmetric(&state.velocity_gradient))
+        + laws
+            .elasticity
+            .stress(&symmetric(&state.displacement_gradient), state.damage)
+}
+
+/// f0 = −Div σ by the chain rule: ∂_j σ = 𝒜'(ε(u̇))[∂_j ε(u̇)] + ∂_ε G[∂_j ε(u)] + ∂_β G ∂_j β.
+pub fn body_force_at<const D: usize>(laws: &Laws<D>, state: &PointState<D>) -> [f64; D] {
+    let rate = symmetric(&state.velocity_gradient);
+    let strain = symmetric(&state.displacement_gradient);
+    let beta = state.damage;
+    let damage_slope = laws.elasticity.damage_derivative(&strain, beta);
+    let mut divergence = SVector::<f64, D>::zeros();
+    for j in 0..D {
+        let d_sigma = laws
+            .viscosity
+            .tangent(&rate, &symmetric(&state.velocity_second[j]))
+            + laws.elasticity.strain_derivative(
+                &strain,
+                beta,
+                &symmetric(&state.displacement_second[j]),
+            )
+            + damage_slope * state.damage_gradient[j];
+        for i in 0..D {
+            divergence[i] += d_sigma[(i, j)];
+        }
+    }
+    std::array::from_fn(|i| -divergence[i])
+}
+
+/// f2 = σν on Γ2 (2.6).
+pub fn traction_at<const D: usize>(
+    laws: &Laws<D>,
+    state: &PointState<D>,
+    normal: &[f64; D],
+) -> [f64; D] {
+    let sigma_n = stress_at(laws, state) * SVector::<f64, D>::from_column_slice(normal);
+    std::array::from_fn(|i| sigma_n[i])
+}
+
+/// The friction direction ξ̂ of SPEC §4: u̇_τ/|u̇_τ| where the body slips, else the tangential
+/// part of the stick field ξ.
+pub fn friction_direction<const D: usize>(
+    state: &PointState<D>,
+    stick_traction: &SVector<f64, D>,
+    normal: &SVector<f64, D>,
+) -> SVector<f64, D> {
+    let slip = state.velocity - normal * state.velocity.dot(normal);
+    let speed = slip.norm();
+    if speed > 0.0 {
+        slip / speed
+    } else {
+        stick_traction - normal * stick_traction.dot(normal)
+    }
+}
+
+/// f3 = σν + p_ν(r) ν + p_τ(r) ξ̂ on Γ3 with the penetration r = u_ν − g (SPEC §4).
+pub fn contact_traction_at<const D: usize>(
+    laws: &Laws<D>,
+    state: &PointState<D>,
+    stick_traction: &SVector<f64, D>,
+    gap: f64,
+    normal: &[f64; D],
+) -> [f64; D] {
+    let nu = SVector::<f64, D>::from_column_slice(normal);
+    let r = state.displacement.dot(&nu) - gap;
+    let f3 = stress_at(laws, state) * nu
+        + nu * laws.contact.normal_pressure(r)
+        + friction_direction(state, stick_traction, &nu) * laws.contact.friction_bound(r);
+    std::array::from_fn(|i| f3[i])
+}
+
+/// β, β̇, Δβ and η at one point (what the damage supply needs besides ∇u).
+#[derive(Debug, Clone, Copy)]
+pub struct DamageJet {
+    /// β.
+    pub value: f64,
+    /// β̇.
+    pub rate: f64,
+    /// Δβ.
+    pub laplacian: f64,
+    /// η.
+    pub multiplier: f64,
+}
+
+/// q = β̇ − κΔβ + η − φ(ε(u), β) (SPEC §4).
+pub fn damage_supply_at<const D: usize>(
+    laws: &Laws<D>,
+    damage: &DamageJet,
+    displacement_gradient: &SMatrix<f64, D, D>,
+) -> f64 {
+    let strain = symmetric(displacement_gradient);
+    damage.rate - laws.damage_diffusion * damage.laplacian + damage.multiplier
+        - laws.damage_source.source(&strain, damage.value)
+}
+
+/// κ ∂β/∂ν.
+pub fn damage_flux_at<const D: usize>(
+    laws: &Laws<D>,
+    damage_gradient: &SVector<f64, D>,
+    normal: &[f64; D],
+) -> f64 {
+    laws.damage_diffusion * damage_gradient.dot(&SVector::<f64, D>::from_column_slice(normal))
 }

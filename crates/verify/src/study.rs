@@ -273,7 +273,7 @@ pub fn run_one<const D: usize>(
     let mut simulation = Simulation::new(problem)?;
     let reference = match reference {
         Some(states) => Reference::Discrete(states),
-        None => Reference::Exact(Arc::new(case.exact.clone())),
+        None => Reference::Exact(case.programs.clone()),
     };
     let k = simulation.time_step();
     let space = simulation.space().clone();

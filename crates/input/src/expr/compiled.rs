@@ -2,11 +2,11 @@
 //! list of SSA instructions over a register file, which is what is evaluated at every
 //! quadrature point.
 //!
-//! Why: the exact fields of a case are evaluated at every quadrature point of every step, on
-//! nested dual numbers (`Dual2Vec<Dual64, D>` for the source terms), where each operation
-//! costs tens of floating-point operations. Walking the tree repeats identical subtrees
-//! (`max(0, x - x_slip)` in several terms, `1 + t`, `cos(pi*y)`, …) and pays a recursive call
-//! per node. The program computes every distinct subexpression once.
+//! Why: the exact fields of a case are evaluated at every quadrature point of every step.
+//! Walking the tree repeats identical subtrees (`max(0, x - x_slip)` in several terms, `1 + t`,
+//! `cos(pi*y)`, …) and pays a recursive call per node. The program computes every distinct
+//! subexpression once. Besides the node kinds of the tree, three selection instructions
+//! (`MinSelect`, `MaxSelect`, `SignOf`) carry the derivatives of `min`, `max` and `abs`.
 //!
 //! - **Instructions** mirror the node kinds of the tree one to one, with the same semantics
 //!   (branch rules of `abs`/`min`/`max` by real part, NaN propagation, `powi`/`powf` for
@@ -30,11 +30,11 @@
 //!   the caller provides and that is reused between evaluations, or a per-thread buffer
 //!   ([`with_registers`]).
 //!
-//! Status (measured on `zones2d`, one thread): the program gives bitwise the same reports but
-//! is not yet faster than the tree walk (3.45–3.58 s against 3.24 s task clock): the built-in
-//! expressions share few subexpressions, and copying duals in and out of the register file
-//! costs about what the recursion did. [`Expr::eval`] therefore still walks the tree; the
-//! program is the basis for batched evaluation (one instruction over many points).
+//! Use: point by point on dual numbers, the program measured no faster than the tree walk
+//! on the built-in expressions (3.45–3.58 s against 3.24 s task clock on `zones2d`, one
+//! thread), which share few subexpressions. What made the harness fast is the combination of
+//! symbolic derivatives sharing their subexpressions on one tape ([`super::derivative`]) with
+//! batched `f64` evaluation ([`super::batch`]).
 
 use std::any::Any;
 use std::cell::RefCell;
@@ -42,15 +42,15 @@ use std::collections::HashMap;
 
 use num_dual::DualNum;
 
-use super::{maximum, minimum, Expr, Node, UnaryFunction};
+use super::{maximum, minimum, picks_first, Expr, Node, UnaryFunction};
 
 /// Index of a register (= of the instruction that writes it).
-type Register = u32;
+pub(super) type Register = u32;
 
 /// One SSA instruction; its result goes to the register of its own index. Constants are kept
 /// as their bit patterns so that instructions can be hashed and compared exactly.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-enum Instruction {
+pub(super) enum Instruction {
     /// A constant (`f64` bits).
     Constant(u64),
     /// The value of variable `slot`.
@@ -75,12 +75,24 @@ enum Instruction {
     Apply(UnaryFunction, Register),
     Min(Register, Register),
     Max(Register, Register),
+    /// The branch rule of `min(a, b)` applied to other registers: `x` where `min(a, b)` picks
+    /// `a`, else `y` (`MinSelect(a, b, x, y)`; the derivative of `min`, see [`super::derivative`]).
+    MinSelect(Register, Register, Register, Register),
+    /// As [`Instruction::MinSelect`] for `max`.
+    MaxSelect(Register, Register, Register, Register),
+    /// `−x` where `a < 0`, else `x` (`SignOf(a, x)`; the derivative of `abs a` is
+    /// `SignOf(a, a')`).
+    SignOf(Register, Register),
 }
 
 impl Instruction {
     /// The registers read.
-    fn operands(&self) -> impl Iterator<Item = Register> {
+    pub(super) fn operands(&self) -> impl Iterator<Item = Register> {
         let (first, second) = match *self {
+            Instruction::MinSelect(a, b, x, y) | Instruction::MaxSelect(a, b, x, y) => {
+                return [Some(a), Some(b), Some(x), Some(y)].into_iter().flatten();
+            }
+            Instruction::SignOf(a, x) => (Some(a), Some(x)),
             Instruction::Constant(_) | Instruction::Variable(_) => (None, None),
             Instruction::Negate(a)
             | Instruction::PowerInteger(a, _)
@@ -97,7 +109,7 @@ impl Instruction {
             | Instruction::Min(a, b)
             | Instruction::Max(a, b) => (Some(a), Some(b)),
         };
-        first.into_iter().chain(second)
+        [first, second, None, None].into_iter().flatten()
     }
 
     /// The same instruction reading `map[operand]` instead of each operand.
@@ -119,6 +131,9 @@ impl Instruction {
             Instruction::Apply(function, a) => Instruction::Apply(function, m(a)),
             Instruction::Min(a, b) => Instruction::Min(m(a), m(b)),
             Instruction::Max(a, b) => Instruction::Max(m(a), m(b)),
+            Instruction::MinSelect(a, b, x, y) => Instruction::MinSelect(m(a), m(b), m(x), m(y)),
+            Instruction::MaxSelect(a, b, x, y) => Instruction::MaxSelect(m(a), m(b), m(x), m(y)),
+            Instruction::SignOf(a, x) => Instruction::SignOf(m(a), m(x)),
         }
     }
 }
@@ -128,24 +143,24 @@ impl Instruction {
 #[derive(Debug, Clone)]
 pub struct Program {
     /// In dependency order: every operand register is smaller than the instruction's own.
-    instructions: Vec<Instruction>,
+    pub(super) instructions: Vec<Instruction>,
     /// The register of each output, in the order the expressions were given.
-    outputs: Vec<Register>,
+    pub(super) outputs: Vec<Register>,
     /// Number of values the evaluation takes.
-    variables: usize,
+    pub(super) variables: usize,
 }
 
 /// Lowering of trees into hash-consed instructions (constant operands of `+`, `−`, `·` are
 /// folded into the instruction; the constant instruction then becomes dead code).
 #[derive(Default)]
-struct Builder {
-    instructions: Vec<Instruction>,
+pub(super) struct Builder {
+    pub(super) instructions: Vec<Instruction>,
     known: HashMap<Instruction, Register>,
 }
 
 impl Builder {
     /// The register of `instruction`: an existing identical one, or a new one.
-    fn emit(&mut self, instruction: Instruction) -> Register {
+    pub(super) fn emit(&mut self, instruction: Instruction) -> Register {
         *self.known.entry(instruction).or_insert_with(|| {
             self.instructions.push(instruction);
             Register::try_from(self.instructions.len() - 1)
@@ -154,7 +169,7 @@ impl Builder {
     }
 
     /// The bits of the constant in `register`, if it holds one.
-    fn constant(&self, register: Register) -> Option<u64> {
+    pub(super) fn constant(&self, register: Register) -> Option<u64> {
         match self.instructions[register as usize] {
             Instruction::Constant(bits) => Some(bits),
             _ => None,
@@ -162,7 +177,7 @@ impl Builder {
     }
 
     /// Lower `node` (recursion depth bounded by the tree depth limit of the parser).
-    fn lower(&mut self, node: &Node) -> Register {
+    pub(super) fn lower(&mut self, node: &Node) -> Register {
         let instruction = match node {
             Node::Constant(value) => Instruction::Constant(value.to_bits()),
             Node::Variable(slot) => Instruction::Variable(*slot),
@@ -210,7 +225,7 @@ impl Builder {
     }
 
     /// The program computing `outputs`, without the instructions none of them depends on.
-    fn finish(self, outputs: Vec<Register>, variables: usize) -> Program {
+    pub(super) fn finish(self, outputs: Vec<Register>, variables: usize) -> Program {
         let mut live = vec![false; self.instructions.len()];
         for &output in &outputs {
             live[output as usize] = true;
@@ -315,6 +330,27 @@ impl Program {
                 Instruction::Apply(function, a) => function.apply(r(a)),
                 Instruction::Min(a, b) => minimum(r(a), r(b)),
                 Instruction::Max(a, b) => maximum(r(a), r(b)),
+                Instruction::MinSelect(a, b, x, y) => {
+                    if picks_first(r(a).re(), r(b).re(), |a, b| a <= b) {
+                        r(x)
+                    } else {
+                        r(y)
+                    }
+                }
+                Instruction::MaxSelect(a, b, x, y) => {
+                    if picks_first(r(a).re(), r(b).re(), |a, b| a >= b) {
+                        r(x)
+                    } else {
+                        r(y)
+                    }
+                }
+                Instruction::SignOf(a, x) => {
+                    if r(a).re() < 0.0 {
+                        -r(x)
+                    } else {
+                        r(x)
+                    }
+                }
             };
             registers.push(value);
         }

@@ -1,0 +1,87 @@
+//! The load data of Problem P as fields evaluated in batches: f0 (2.3), f2 (2.6), and the extra
+//! data of manufactured solutions (f3 on Γ3, the damage supply q and flux κ ∂β/∂ν, SPEC §4).
+//!
+//! The scheme evaluates each field once per step over all quadrature points of a chunk of cells
+//! (or over all quadrature points of a boundary part), so that an implementation can amortize
+//! its per-call cost (e.g. a compiled expression run instruction by instruction over a batch).
+//! Every closure `Fn(&[f64; D], f64) -> …` is such a field (blanket implementations, one point
+//! at a time), so `Arc::new(|x: &[f64; 2], t: f64| …)` keeps working as a [`VectorField`].
+
+use std::sync::Arc;
+
+/// A vector field of (x, t) evaluated over a batch of points: f0.
+pub trait BatchVectorField<const D: usize>: Send + Sync {
+    /// `out[p] = f(points[p], time)` for every p (`out.len() == points.len()`).
+    fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [[f64; D]]);
+}
+
+/// A vector boundary datum of (x, t, outward normal) over a batch of boundary points: f2, f3.
+pub trait BatchBoundaryVectorField<const D: usize>: Send + Sync {
+    /// `out[p] = f(points[p], time, normals[p])` for every p (all slices of one length).
+    fn evaluate(&self, points: &[[f64; D]], normals: &[[f64; D]], time: f64, out: &mut [[f64; D]]);
+}
+
+/// A scalar field of (x, t) over a batch of points: the damage supply q.
+pub trait BatchScalarField<const D: usize>: Send + Sync {
+    /// `out[p] = q(points[p], time)` for every p.
+    fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [f64]);
+}
+
+/// A scalar boundary datum of (x, t, outward normal) over a batch: the damage flux κ ∂β/∂ν.
+pub trait BatchBoundaryScalarField<const D: usize>: Send + Sync {
+    /// `out[p] = g(points[p], time, normals[p])` for every p.
+    fn evaluate(&self, points: &[[f64; D]], normals: &[[f64; D]], time: f64, out: &mut [f64]);
+}
+
+impl<const D: usize, F> BatchVectorField<D> for F
+where
+    F: Fn(&[f64; D], f64) -> [f64; D] + Send + Sync,
+{
+    fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [[f64; D]]) {
+        for (x, value) in points.iter().zip(out) {
+            *value = self(x, time);
+        }
+    }
+}
+
+impl<const D: usize, F> BatchBoundaryVectorField<D> for F
+where
+    F: Fn(&[f64; D], f64, &[f64; D]) -> [f64; D] + Send + Sync,
+{
+    fn evaluate(&self, points: &[[f64; D]], normals: &[[f64; D]], time: f64, out: &mut [[f64; D]]) {
+        for ((x, normal), value) in points.iter().zip(normals).zip(out) {
+            *value = self(x, time, normal);
+        }
+    }
+}
+
+impl<const D: usize, F> BatchScalarField<D> for F
+where
+    F: Fn(&[f64; D], f64) -> f64 + Send + Sync,
+{
+    fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [f64]) {
+        for (x, value) in points.iter().zip(out) {
+            *value = self(x, time);
+        }
+    }
+}
+
+impl<const D: usize, F> BatchBoundaryScalarField<D> for F
+where
+    F: Fn(&[f64; D], f64, &[f64; D]) -> f64 + Send + Sync,
+{
+    fn evaluate(&self, points: &[[f64; D]], normals: &[[f64; D]], time: f64, out: &mut [f64]) {
+        for ((x, normal), value) in points.iter().zip(normals).zip(out) {
+            *value = self(x, time, normal);
+        }
+    }
+}
+
+/// A vector field of (x, t): f0.
+pub type VectorField<const D: usize> = Arc<dyn BatchVectorField<D>>;
+/// A vector boundary datum of (x, t, outward normal): f2, f3.
+pub type BoundaryVectorField<const D: usize> = Arc<dyn BatchBoundaryVectorField<D>>;
+/// A scalar field of (x, t): q.
+pub type ScalarField<const D: usize> = Arc<dyn BatchScalarField<D>>;
+/// A scalar boundary datum of (x, t, outward normal): the damage flux κ ∂β/∂ν.
+pub type BoundaryScalarField<const D: usize> = Arc<dyn BatchBoundaryScalarField<D>>;
