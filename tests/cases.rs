@@ -122,7 +122,7 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
         let f3 =
             SVector::<f64, D>::from_column_slice(&exact.contact_traction(laws, &x, t, &normal));
         let r = sigma_n - f3;
-        let penetration = exact.penetration(&state, &x, &nu);
+        let penetration = exact.penetration(&state, &x, t, &nu);
         let (p_normal, p_friction) = (
             laws.contact.normal_pressure(penetration),
             laws.contact.friction_bound(penetration),

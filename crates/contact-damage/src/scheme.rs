@@ -8,6 +8,8 @@ use crate::assembly::{
 };
 use crate::contact::{ContactNodes, ContactStatus};
 use crate::damage::{DamageOperator, DamageSolution};
+use crate::dirichlet::DirichletConstraints;
+pub use crate::dirichlet::PrescribedDisplacement;
 use crate::laws::{ContactLaw, DamageSource, Elasticity, Viscosity};
 use crate::mesh::{BoundaryPart, Mesh};
 use crate::obstacle::{BoxQpSettings, BoxQpStats};
@@ -26,7 +28,7 @@ pub type VectorField<const D: usize> = Arc<dyn Fn(&[f64; D], f64) -> [f64; D] + 
 /// A vector boundary datum of (x, t, outward normal): f2, f3.
 pub type BoundaryVectorField<const D: usize> =
     Arc<dyn Fn(&[f64; D], f64, &[f64; D]) -> [f64; D] + Send + Sync>;
-/// A scalar field of (x, t): q.
+/// A scalar field of (x, t): q, g, u_D,i.
 pub type ScalarField<const D: usize> = Arc<dyn Fn(&[f64; D], f64) -> f64 + Send + Sync>;
 /// A time-independent scalar field of x: g, β0.
 pub type StaticScalarField<const D: usize> = Arc<dyn Fn(&[f64; D]) -> f64 + Send + Sync>;
@@ -64,9 +66,14 @@ pub struct Data<const D: usize> {
     pub damage_supply: Option<ScalarField<D>>,
     /// Damage flux κ ∂β/∂ν on Γ (zero in (2.4); nonzero for manufactured solutions).
     pub damage_flux: Option<BoundaryScalarField<D>>,
-    /// Gap g ≥ 0 on Γ3, measured along the outward normal.
-    pub gap: StaticScalarField<D>,
-    /// u0 (must vanish on Γ1).
+    /// Gap g(x, t) on Γ3, measured along the outward normal. It may move and be negative (a
+    /// rigid obstacle pushed into the body); the explicit scheme (5.1) takes it at t_{n−1},
+    /// with u_{n−1}, the implicit normal compliance at t_n (see [`ContactTreatment`]).
+    pub gap: ScalarField<D>,
+    /// Parts of Γ1 with a prescribed displacement u = u_D(x, t), some components or all; the
+    /// Γ1 facets of no part are clamped, u = 0 (2.5). Empty: the paper's Γ1.
+    pub dirichlet: Vec<PrescribedDisplacement<D>>,
+    /// u0 (must equal u_D(·, 0) on the prescribed components of Γ1, 0 on the clamped ones).
     pub initial_displacement: StaticVectorField<D>,
     /// β0 with values in [0, 1].
     pub initial_damage: StaticScalarField<D>,
@@ -91,7 +98,9 @@ pub enum ContactTreatment {
     #[default]
     Explicit,
     /// At u_n = u_{n−1} + k v_n (the friction bound stays at u_{n−1}): a strongly monotone step
-    /// solved exactly by generalized Newton, stable for any k (stiff contact).
+    /// solved exactly by generalized Newton, stable for any k (stiff contact). The normal
+    /// compliance takes the gap at t_n, p_ν(u_{n,ν} − g(t_n)); the friction bound stays
+    /// p_τ(u_{n−1,ν} − g(t_{n−1})).
     Implicit,
 }
 
@@ -145,6 +154,9 @@ pub struct StepReport<'a, const D: usize> {
     pub friction_bound: &'a [f64],
     /// Friction multipliers (D−1 per contact node).
     pub multipliers: &'a [f64],
+    /// Resultant reaction ∫ σν dΓ of each part of Γ1 (order of
+    /// [`Simulation::dirichlet_parts`]): the force of the support on the body.
+    pub reactions: &'a [[f64; D]],
     /// Velocity step statistics.
     pub velocity_stats: &'a VelocityStats,
     /// Damage step statistics.
@@ -189,7 +201,7 @@ pub struct Simulation<const D: usize> {
     velocity: VelocityOperator<D>,
     damage: DamageOperator<D>,
     load_tabulation: Tabulation<D>,
-    gap: Vec<f64>,
+    dirichlet: DirichletConstraints<D>,
     state: State,
 }
 
@@ -218,8 +230,13 @@ impl<const D: usize> Simulation<D> {
         }
         let space = Arc::new(LagrangeSpace::new(problem.mesh.clone(), problem.degree)?);
         let contact = Arc::new(ContactNodes::new(&space)?);
-        let velocity =
-            VelocityOperator::new(space.clone(), model.viscosity.clone(), contact.clone())?;
+        let dirichlet = DirichletConstraints::new(&space, &problem.data.dirichlet)?;
+        let velocity = VelocityOperator::with_constraints(
+            space.clone(),
+            model.viscosity.clone(),
+            contact.clone(),
+            dirichlet.constrained.clone(),
+        )?;
         let time_step = problem.final_time / problem.steps as f64;
         let damage = DamageOperator::new(
             space.clone(),
@@ -231,35 +248,25 @@ impl<const D: usize> Simulation<D> {
             space.element(),
             &QuadratureRule::<D>::simplex(2 * space.degree() + 2),
         );
-        let gap: Vec<f64> = contact
-            .nodes
-            .iter()
-            .map(|&node| (problem.data.gap)(&space.node(node)))
-            .collect();
-        if let Some(k) = gap.iter().position(|g| !g.is_finite() || *g < 0.0) {
-            return Err(Error::parameter(
-                format!(
-                    "gap at contact node {} {:?}",
-                    contact.nodes[k],
-                    space.node(contact.nodes[k])
-                ),
-                gap[k],
-                "g must be finite and ≥ 0",
-            ));
-        }
-        let displacement = space.interpolate_vector(|x| (problem.data.initial_displacement)(x));
-        for node in space.boundary_nodes(BoundaryPart::Dirichlet) {
-            let u = &displacement[node * D..node * D + D];
-            if u.iter().any(|v| v.abs() > 1e-12) {
+        gap_values(&space, &contact, &problem.data.gap, 0.0)?;
+        let mut displacement = space.interpolate_vector(|x| (problem.data.initial_displacement)(x));
+        let prescribed = dirichlet.values(&space, 0.0)?;
+        for &(dof, owner) in &dirichlet.dofs {
+            let (u, u_d) = (displacement[dof], prescribed[dof]);
+            if !((u - u_d).abs() <= 1e-12 * (1.0 + u_d.abs())) {
+                let node = dof / D;
                 return Err(Error::parameter(
                     format!(
-                        "initial_displacement at clamped node {node} {:?}",
-                        space.node(node)
+                        "initial_displacement at node {node} {:?}, component {}, on Γ1 part `{}`",
+                        space.node(node),
+                        dof % D,
+                        dirichlet.names[owner]
                     ),
-                    u.iter().fold(0.0f64, |m, v| m.max(v.abs())),
-                    "u0 must vanish on Γ1 (2.5)",
+                    u,
+                    format!("u0 must equal the prescribed u_D(x, 0) = {u_d} on Γ1 (2.5)"),
                 ));
             }
+            displacement[dof] = u_d;
         }
         let damage_values = space.interpolate_scalar(|x| (problem.data.initial_damage)(x));
         if let Some(i) = damage_values.iter().position(|b| !(0.0..=1.0).contains(b)) {
@@ -289,9 +296,27 @@ impl<const D: usize> Simulation<D> {
             velocity,
             damage,
             load_tabulation,
-            gap,
+            dirichlet,
             state,
         })
+    }
+
+    /// Names of the parts of Γ1, in the order of [`StepReport::reactions`]: the parts of
+    /// [`Data::dirichlet`], then [`crate::dirichlet::CLAMPED_PART`] if some Γ1 facet belongs
+    /// to no part.
+    pub fn dirichlet_parts(&self) -> &[String] {
+        &self.dirichlet.names
+    }
+
+    /// The resultant reaction of each part of Γ1 (order of [`Self::dirichlet_parts`]) from the
+    /// nodal reactions of a velocity step ([`VelocitySolution::reaction`]).
+    pub fn part_reactions(&self, reaction: &[f64]) -> Vec<[f64; D]> {
+        self.dirichlet.resultants(reaction)
+    }
+
+    /// g(a, t) at the contact nodes; a non-finite value is an error naming the node.
+    pub fn gap_at(&self, time: f64) -> Result<Vec<f64>> {
+        gap_values(&self.space, &self.contact, &self.problem.data.gap, time)
     }
 
     /// The current state.
@@ -413,6 +438,7 @@ impl<const D: usize> Simulation<D> {
                 &mut velocity_load,
             );
         }
+        self.add_part_tractions(time, &mut velocity_load);
         if let Some(flux) = &data.damage_flux {
             add_facet_integrals(
                 space,
@@ -426,15 +452,43 @@ impl<const D: usize> Simulation<D> {
         (velocity_load, damage_source)
     }
 
-    /// Penetrations u_{n−1,ν}(a) − g(a) at the contact nodes.
-    fn penetrations(&self) -> Vec<f64> {
+    /// ∫ f·φ_a e_i over the facets of each part of Γ1 with a traction, on its free components i.
+    fn add_part_tractions(&self, time: f64, velocity_load: &mut [f64]) {
+        let space = &*self.space;
+        let degree = 2 * space.degree() + 2;
+        for (p, part) in self.dirichlet.parts.iter().enumerate() {
+            let Some(traction) = &part.traction else {
+                continue;
+            };
+            let owner = &self.dirichlet.facet_owner;
+            add_facet_integrals(
+                space,
+                degree,
+                D,
+                |f| owner[f] == Some(p),
+                |x, normal, out| {
+                    out.copy_from_slice(&traction(x, time, normal));
+                    for (value, component) in out.iter_mut().zip(&part.components) {
+                        if component.is_some() {
+                            *value = 0.0;
+                        }
+                    }
+                },
+                velocity_load,
+            );
+        }
+    }
+
+    /// Penetrations u_ν(a) − g(a) of the current state at the contact nodes, for the gap
+    /// values `gap` (of [`Self::gap_at`]).
+    fn penetrations(&self, gap: &[f64]) -> Vec<f64> {
         (0..self.contact.len())
             .map(|k| {
                 let node = self.contact.nodes[k];
                 let u = SVector::<f64, D>::from_column_slice(
                     &self.state.displacement[node * D..node * D + D],
                 );
-                u.dot(&self.contact.normal(k)) - self.gap[k]
+                u.dot(&self.contact.normal(k)) - gap[k]
             })
             .collect()
     }
@@ -444,7 +498,16 @@ impl<const D: usize> Simulation<D> {
         let n = self.state.step + 1;
         let time = n as f64 * self.time_step();
         let (velocity_load, damage_source) = self.step_loads(time);
-        let penetrations = self.penetrations();
+        let k = self.time_step();
+        let previous_time = (n - 1) as f64 * k;
+        // p_ν and p_τ of (5.1) at u_{n−1} − g(t_{n−1})
+        let penetrations = self.penetrations(&self.gap_at(previous_time)?);
+        // u_D(t_n) on Γ1: v_c = (u_D(t_n) − u_{n−1,c})/k
+        let prescribed_displacement = self.dirichlet.values(&self.space, time)?;
+        let mut prescribed = vec![0.0; prescribed_displacement.len()];
+        for &(dof, _) in &self.dirichlet.dofs {
+            prescribed[dof] = (prescribed_displacement[dof] - self.state.displacement[dof]) / k;
+        }
         let law = &self.problem.model.contact;
         let normal_pressure: Vec<f64> = penetrations
             .iter()
@@ -459,11 +522,17 @@ impl<const D: usize> Simulation<D> {
             load: &velocity_load,
             normal_pressure: &normal_pressure,
             friction_bound: &friction_bound,
-            implicit_contact: implicit.then(|| ImplicitNormalCompliance {
-                previous_penetration: penetrations,
-                time_step: self.time_step(),
-                law: law.clone(),
-            }),
+            implicit_contact: if implicit {
+                Some(ImplicitNormalCompliance {
+                    // u_{n−1,ν} − g(t_n): the end-of-step penetration is this plus k v_ν
+                    previous_penetration: self.penetrations(&self.gap_at(time)?),
+                    time_step: k,
+                    law: law.clone(),
+                })
+            } else {
+                None
+            },
+            prescribed: Some(&prescribed),
         };
         let settings = self.problem.settings.velocity;
         let previous_velocity = &self.state.velocity;
@@ -476,9 +545,12 @@ impl<const D: usize> Simulation<D> {
         );
         let velocity = velocity?;
         let damage = damage?;
-        let k = self.time_step();
         for (u, v) in self.state.displacement.iter_mut().zip(&velocity.velocity) {
             *u += k * v;
+        }
+        // u_n = u_D(t_n) on Γ1 exactly (u_{n−1} + k v_n agrees up to rounding)
+        for &(dof, _) in &self.dirichlet.dofs {
+            self.state.displacement[dof] = prescribed_displacement[dof];
         }
         self.state.velocity.clone_from(&velocity.velocity);
         self.state.damage.clone_from(&damage.damage);
@@ -487,7 +559,7 @@ impl<const D: usize> Simulation<D> {
         // the pressure the step used: p_ν at u_{n−1} (5.1), or at u_n = u_{n−1} + k v_n
         let normal_pressure = if implicit {
             let law = &self.problem.model.contact;
-            self.penetrations()
+            self.penetrations(&self.gap_at(time)?)
                 .iter()
                 .map(|&r| law.normal_pressure(r))
                 .collect()
@@ -537,6 +609,7 @@ impl<const D: usize> Simulation<D> {
             if damage.stats.upper_active > 0 {
                 summary.steps_with_damage_bound[1] += 1;
             }
+            let reactions = self.part_reactions(&velocity.reaction);
             observer(&StepReport {
                 state: &self.state,
                 space: &self.space,
@@ -545,10 +618,36 @@ impl<const D: usize> Simulation<D> {
                 normal_pressure: &normal_pressure,
                 friction_bound: &friction_bound,
                 multipliers: &velocity.multipliers,
+                reactions: &reactions,
                 velocity_stats: &velocity.stats,
                 damage_stats: &damage.stats,
             })?;
         }
         Ok(summary)
     }
+}
+
+/// g(a, t) at the contact nodes a; a non-finite value is an [`Error::NonFinite`] naming the
+/// node, its position and t.
+fn gap_values<const D: usize>(
+    space: &LagrangeSpace<D>,
+    contact: &ContactNodes<D>,
+    gap: &ScalarField<D>,
+    time: f64,
+) -> Result<Vec<f64>> {
+    contact
+        .nodes
+        .iter()
+        .map(|&node| {
+            let x = space.node(node);
+            let value = gap(&x, time);
+            if value.is_finite() {
+                Ok(value)
+            } else {
+                Err(Error::NonFinite(format!(
+                    "gap g = {value} at contact node {node} {x:?}, t = {time}"
+                )))
+            }
+        })
+        .collect()
 }

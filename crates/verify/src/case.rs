@@ -13,7 +13,9 @@ use contact_damage::laws::{
     SaturatingViscosity, Tensor, TruncatedFremond, Viscosity,
 };
 use contact_damage::mesh::{BoundaryPart, Mesh};
-use contact_damage::scheme::{ContactTreatment, Data, Model, Problem, SchemeSettings};
+use contact_damage::scheme::{
+    ContactTreatment, Data, Model, PrescribedDisplacement, Problem, ScalarField, SchemeSettings,
+};
 use nalgebra::SVector;
 use num_dual::{Dual2SVec64, Dual64};
 use serde::{Deserialize, Serialize};
@@ -58,6 +60,124 @@ pub struct CaseFile {
     /// `[scheme]`: variants of the scheme (default: the paper's (5.1)–(5.5)).
     #[serde(default)]
     pub scheme: SchemeFile,
+    /// `[[displacement]]`: sides of Γ1 whose listed components are prescribed, u_D = u (the
+    /// exact field); the other components of the side are free with the exact traction σν.
+    #[serde(default)]
+    pub displacement: Vec<CaseDisplacementFile>,
+}
+
+/// One `[[displacement]]` of a case file: a box side of Γ1 with prescribed components.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseDisplacementFile {
+    /// The side (`x_min`, …); it must be `clamped` or unlisted in `domain.sides`.
+    pub part: String,
+    /// The prescribed components (`"x"`, `"y"`, `"z"`); the others are free.
+    pub components: Vec<String>,
+}
+
+/// A prescribed side of a case: axis, end (0 = min, 1 = max) and the prescribed components.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PrescribedSide<const D: usize> {
+    /// Axis of the side's normal.
+    pub axis: usize,
+    /// 0 for the side x_axis = lower, 1 for upper.
+    pub end: usize,
+    /// Prescribed components.
+    pub components: [bool; D],
+}
+
+/// The side name (`x_min`, …) as (axis, end), if it names a side in dimension D.
+pub fn side_index<const D: usize>(key: &str) -> Option<(usize, usize)> {
+    let (axis, end) = key.split_once('_')?;
+    let axis = ["x", "y", "z"].iter().position(|n| *n == axis)?;
+    let end = match end {
+        "min" => 0,
+        "max" => 1,
+        _ => return None,
+    };
+    (axis < D).then_some((axis, end))
+}
+
+/// A component name (`x`, `y`, `z`) as its index in dimension D.
+pub fn component_index<const D: usize>(name: &str) -> Option<usize> {
+    ["x", "y", "z"]
+        .iter()
+        .position(|n| *n == name)
+        .filter(|&i| i < D)
+}
+
+/// Checks `[[displacement]]` (key prefix `key`) against the box sides and marks the prescribed
+/// sides as Γ1: a side must be `clamped` or unlisted (`contact` overlaps Γ3, `traction` is Γ2:
+/// errors), listed once, with at least one component, each once.
+pub fn prescribed_sides<const D: usize>(
+    origin: &str,
+    key: &str,
+    parts: &[(String, Vec<String>)],
+    sides_file: &BTreeMap<String, String>,
+    sides: &mut [[BoundaryPart; 2]; D],
+) -> Result<Vec<PrescribedSide<D>>, VerifyError> {
+    let mut result: Vec<PrescribedSide<D>> = Vec::new();
+    for (i, (part, components)) in parts.iter().enumerate() {
+        let key = format!("{key}[{i}]");
+        let Some((axis, end)) = side_index::<D>(part) else {
+            return Err(case_error(
+                origin,
+                &format!("{key}.part"),
+                format!("unknown side `{part}` (use x_min, x_max, y_min, y_max[, z_min, z_max])"),
+            ));
+        };
+        match sides_file.get(part).map(String::as_str) {
+            None | Some("clamped") => sides[axis][end] = BoundaryPart::Dirichlet,
+            Some("contact") => {
+                return Err(case_error(
+                    origin,
+                    &format!("{key}.part"),
+                    format!("side `{part}` is the contact boundary Γ3: a prescribed displacement may not overlap Γ3"),
+                ))
+            }
+            Some(other) => {
+                return Err(case_error(
+                    origin,
+                    &format!("{key}.part"),
+                    format!("side `{part}` is `{other}`: a prescribed displacement acts on a `clamped` (Γ1) or unlisted side"),
+                ))
+            }
+        }
+        if result.iter().any(|s| (s.axis, s.end) == (axis, end)) {
+            return Err(case_error(
+                origin,
+                &format!("{key}.part"),
+                format!("side `{part}` is listed twice"),
+            ));
+        }
+        let mut mask = [false; D];
+        for (j, name) in components.iter().enumerate() {
+            match component_index::<D>(name) {
+                Some(c) if !mask[c] => mask[c] = true,
+                _ => {
+                    return Err(case_error(
+                        origin,
+                        &format!("{key}.components[{j}]"),
+                        format!("`{name}` is not a component (x, y[, z]) or is listed twice"),
+                    ))
+                }
+            }
+        }
+        if !mask.contains(&true) {
+            return Err(case_error(
+                origin,
+                &format!("{key}.components"),
+                "list at least one prescribed component",
+            ));
+        }
+        result.push(PrescribedSide {
+            axis,
+            end,
+            components: mask,
+        });
+    }
+    Ok(result)
 }
 
 /// `[scheme]` of case and problem files.
@@ -496,6 +616,8 @@ pub struct Case<const D: usize> {
     pub laws: Laws<D>,
     /// Exact fields.
     pub exact: ExactSolution<D>,
+    /// Sides of Γ1 with prescribed components u_D = u.
+    pub prescribed: Vec<PrescribedSide<D>>,
 }
 
 /// A damage source given by an expression in β, tr ε and ε:ε.
@@ -691,7 +813,19 @@ impl<const D: usize> Case<D> {
                 format!("need {D} coordinates each"),
             ));
         }
-        let sides = parse_sides::<D>(origin, "domain.sides", &file.domain.sides)?;
+        let mut sides = parse_sides::<D>(origin, "domain.sides", &file.domain.sides)?;
+        let parts: Vec<(String, Vec<String>)> = file
+            .displacement
+            .iter()
+            .map(|d| (d.part.clone(), d.components.clone()))
+            .collect();
+        let prescribed = prescribed_sides::<D>(
+            origin,
+            "displacement",
+            &parts,
+            &file.domain.sides,
+            &mut sides,
+        )?;
         let constants = &file.constants;
         let laws = file.laws.build::<D>(origin, constants)?;
 
@@ -750,16 +884,10 @@ impl<const D: usize> Case<D> {
                 constants,
             )?,
         };
-        if exact.gap.used_variables().iter().any(|v| v == "t") {
-            return Err(case_error(
-                origin,
-                "exact.gap",
-                "the gap g(x) must not depend on t",
-            ));
-        }
         let case = Self {
             origin: origin.to_string(),
             sides,
+            prescribed,
             laws,
             exact,
             file,
@@ -801,7 +929,16 @@ impl<const D: usize> Case<D> {
             for axis in 0..D {
                 for (side, coordinate) in [lower[axis], upper[axis]].into_iter().enumerate() {
                     if (x[axis] - coordinate).abs() < 1e-14 {
-                        parts.push(self.sides[axis][side]);
+                        // a prescribed side takes u_D = u: nothing to check there
+                        let free = self
+                            .prescribed
+                            .iter()
+                            .any(|p| (p.axis, p.end) == (axis, side));
+                        parts.push(if free {
+                            BoundaryPart::Neumann
+                        } else {
+                            self.sides[axis][side]
+                        });
                         let mut n = [0.0; D];
                         n[axis] = if side == 0 { -1.0 } else { 1.0 };
                         normals.push(n);
@@ -849,11 +986,11 @@ impl<const D: usize> Case<D> {
                         }
                         BoundaryPart::Contact => {
                             let gap = value(&self.exact.gap, &x, t);
-                            if gap < 0.0 || !gap.is_finite() {
+                            if !gap.is_finite() {
                                 return Err(case_error(
                                     origin,
                                     "exact.gap",
-                                    format!("g = {gap} < 0 on Γ3 {}", at()),
+                                    format!("g = {gap} is not finite on Γ3 {}", at()),
                                 ));
                             }
                             let xi: Vec<f64> = self
@@ -908,8 +1045,40 @@ impl<const D: usize> Case<D> {
         let (eq, lq) = (exact.clone(), laws.clone());
         let (ef, lf) = (exact.clone(), laws.clone());
         let (eu, eb, eg) = (exact.clone(), exact.clone(), exact.clone());
+        let mesh = self.mesh(cells)?;
+        let dirichlet = self
+            .prescribed
+            .iter()
+            .map(|side| {
+                let coordinate = if side.end == 0 {
+                    self.lower()[side.axis]
+                } else {
+                    self.upper()[side.axis]
+                };
+                let components = std::array::from_fn(|i| {
+                    side.components[i].then(|| {
+                        let e = exact.clone();
+                        Arc::new(move |x: &[f64; D], t: f64| value(&e.displacement[i], x, t))
+                            as ScalarField<D>
+                    })
+                });
+                let (et, lt) = (exact.clone(), laws.clone());
+                PrescribedDisplacement {
+                    name: format!(
+                        "{}_{}",
+                        ["x", "y", "z"][side.axis],
+                        ["min", "max"][side.end]
+                    ),
+                    facets: mesh.boundary_facets_where(|x| x[side.axis] == coordinate),
+                    components,
+                    traction: Some(Arc::new(move |x: &[f64; D], t: f64, n: &[f64; D]| {
+                        et.traction(&lt, x, t, n)
+                    })),
+                }
+            })
+            .collect();
         Ok(Problem {
-            mesh: Arc::new(self.mesh(cells)?),
+            mesh: Arc::new(mesh),
             degree,
             model: laws.clone(),
             data: Data {
@@ -918,7 +1087,8 @@ impl<const D: usize> Case<D> {
                 contact_traction: Some(Arc::new(move |x, t, n| e3.contact_traction(&l3, x, t, n))),
                 damage_supply: Some(Arc::new(move |x, t| eq.damage_supply(&lq, x, t))),
                 damage_flux: Some(Arc::new(move |x, t, n| ef.damage_flux(&lf, x, t, n))),
-                gap: Arc::new(move |x| value(&eg.gap, x, 0.0)),
+                gap: Arc::new(move |x, t| value(&eg.gap, x, t)),
+                dirichlet,
                 initial_displacement: Arc::new(move |x| {
                     std::array::from_fn(|i| value(&eu.displacement[i], x, 0.0))
                 }),

@@ -83,7 +83,7 @@ pub struct ExactSolution<const D: usize> {
     pub stick_traction: [Expr; D],
     /// η(x, t) ∈ ∂ψ_K(β): ≥ 0 where β = 1, ≤ 0 where β = 0, 0 in between.
     pub damage_multiplier: Expr,
-    /// g(x) ≥ 0.
+    /// g(x, t), may be negative (an obstacle pushed into the body).
     pub gap: Expr,
 }
 
@@ -200,14 +200,15 @@ impl<const D: usize> ExactSolution<D> {
         }
     }
 
-    /// Penetration r = u_ν − g at a point of Γ3.
+    /// Penetration r = u_ν − g(x, t) at a point of Γ3 (`state` at time t).
     pub fn penetration(
         &self,
         state: &PointState<D>,
         x: &[f64; D],
+        t: f64,
         normal: &SVector<f64, D>,
     ) -> f64 {
-        state.displacement.dot(normal) - value(&self.gap, x, 0.0)
+        state.displacement.dot(normal) - value(&self.gap, x, t)
     }
 
     /// f3 = σν + p_ν(u_ν − g) ν + p_τ(u_ν − g) ξ̂ on Γ3 (SPEC §4).
@@ -220,7 +221,7 @@ impl<const D: usize> ExactSolution<D> {
     ) -> [f64; D] {
         let state = self.point_state(x, t);
         let nu = SVector::<f64, D>::from_column_slice(normal);
-        let r = self.penetration(&state, x, &nu);
+        let r = self.penetration(&state, x, t, &nu);
         let f3 = self.stress(laws, &state) * nu
             + nu * laws.contact.normal_pressure(r)
             + self.friction_direction(&state, x, t, &nu) * laws.contact.friction_bound(r);
