@@ -433,14 +433,20 @@ impl<const D: usize> VelocityOperator<D> {
     /// Cartesian node-major vector → system frame (frames at contact nodes, zero on the
     /// constrained unknowns).
     pub fn to_system(&self, cartesian: &[f64]) -> Vec<f64> {
+        let mut system = self.rotate_to_system(cartesian);
+        for (value, _) in system.iter_mut().zip(&self.constrained).filter(|(_, &c)| c) {
+            *value = 0.0;
+        }
+        system
+    }
+
+    /// Cartesian node-major vector → system frame, keeping the constrained entries.
+    fn rotate_to_system(&self, cartesian: &[f64]) -> Vec<f64> {
         let mut system = cartesian.to_vec();
         for (k, &node) in self.contact.nodes.iter().enumerate() {
             let local = self.contact.frames[k].transpose()
                 * SVector::<f64, D>::from_column_slice(&cartesian[node * D..node * D + D]);
             system[node * D..node * D + D].copy_from_slice(local.as_slice());
-        }
-        for (value, _) in system.iter_mut().zip(&self.constrained).filter(|(_, &c)| c) {
-            *value = 0.0;
         }
         system
     }
@@ -606,7 +612,7 @@ impl<const D: usize> VelocityOperator<D> {
     }
 
     /// The cell energies ∫_K Φ(ε(v)) dx and the internal force vector ⟨𝒜ε(v), ε(φ_a e_i)⟩ in
-    /// the system frame.
+    /// the system frame (on every unknown, constrained ones included).
     fn energy_and_force(&self, velocity_system: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let cartesian = self.to_cartesian(velocity_system);
         let n_local = self.space.nodes_per_cell() * D;
@@ -645,7 +651,7 @@ impl<const D: usize> VelocityOperator<D> {
                 }
             }
         }
-        let mut force = self.to_system(&force);
+        let mut force = self.rotate_to_system(&force);
         if let Some(implicit) = &self.implicit {
             // Σ_a ω_a P(r_a + k v_ν(a))/k and its gradient ω_a p_ν(r_a + k v_ν(a)) e_ν
             for (k, &node) in self.contact.nodes.iter().enumerate() {
@@ -701,14 +707,23 @@ impl<const D: usize> VelocityOperator<D> {
         multipliers: &[f64],
     ) -> f64 {
         let force = if self.law.is_linear() && self.implicit.is_none() && self.matrix_is_plain {
-            multiply(&self.matrix, velocity_system)
+            // H_ff v_f on the free rows (the load is lifted); N(v)_c on the constrained ones
+            let mut force = multiply(&self.matrix, velocity_system);
+            let constrained_force =
+                self.constrained_cell_force(&self.to_cartesian(velocity_system));
+            for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
+                force[dof] = constrained_force[dof];
+            }
+            force
         } else {
             self.energy_and_force(velocity_system).1
         };
         self.kkt_residual_with_force(load_system, weights, velocity_system, multipliers, &force)
     }
 
-    /// [`Self::kkt_residual`] with the internal force N(v) (system frame) already known.
+    /// [`Self::kkt_residual`] with the internal force N(v) (system frame, on every unknown)
+    /// already known. The scale takes the load on the free unknowns and the internal force on
+    /// all (on a constrained unknown, the force the support balances).
     fn kkt_residual_with_force(
         &self,
         load_system: &[f64],
@@ -726,7 +741,7 @@ impl<const D: usize> VelocityOperator<D> {
                 .fold(0.0f64, |m, (v, _)| m.max(v.abs()))
         };
         let load_scale = free_largest(load_system);
-        let force_scale = free_largest(force);
+        let force_scale = force.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
             residual[dof] = velocity_system[dof] - self.prescribed[dof];
         }
@@ -1043,8 +1058,13 @@ impl<const D: usize> VelocityOperator<D> {
                 self.linearized_at = Some(velocity.clone());
             }
             // the Newton model around v in increment form: b − Hv = F − N(v)
-            let minus_gradient: Vec<f64> =
-                load.iter().zip(&point.force).map(|(f, n)| f - n).collect();
+            // (zero on the constrained unknowns: the iterates keep v_c = p_c)
+            let minus_gradient: Vec<f64> = load
+                .iter()
+                .zip(&point.force)
+                .zip(&self.constrained)
+                .map(|((f, n), &c)| if c { 0.0 } else { f - n })
+                .collect();
             let mut friction_settings = settings.friction;
             friction_settings.tolerance = (friction_settings.tolerance * NEWTON_HEADROOM)
                 .max(MIN_FRICTION_TOLERANCE)
