@@ -104,8 +104,8 @@ impl<const D: usize> DirichletConstraints<D> {
         let clamped = parts.len();
         let mut owner: Vec<Option<usize>> = vec![None; space.num_nodes() * D];
         let mut any_clamped = false;
-        for f in 0..mesh.num_facets() {
-            if mesh.facet_part(f) == BoundaryPart::Dirichlet && facet_owner[f].is_none() {
+        for (f, owner_of_facet) in facet_owner.iter().enumerate() {
+            if mesh.facet_part(f) == BoundaryPart::Dirichlet && owner_of_facet.is_none() {
                 any_clamped = true;
                 for &node in space.facet_nodes(f) {
                     owner[node * D..node * D + D].fill(Some(clamped));

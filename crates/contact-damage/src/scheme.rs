@@ -253,7 +253,8 @@ impl<const D: usize> Simulation<D> {
         let prescribed = dirichlet.values(&space, 0.0)?;
         for &(dof, owner) in &dirichlet.dofs {
             let (u, u_d) = (displacement[dof], prescribed[dof]);
-            if !((u - u_d).abs() <= 1e-12 * (1.0 + u_d.abs())) {
+            let matches = (u - u_d).abs() <= 1e-12 * (1.0 + u_d.abs());
+            if !matches {
                 let node = dof / D;
                 return Err(Error::parameter(
                     format!(
