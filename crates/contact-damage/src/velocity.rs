@@ -178,6 +178,8 @@ pub struct VelocityOperator<const D: usize> {
     constrained_cells: Vec<usize>,
     /// Prescribed velocities of the current step on the constrained unknowns (zero elsewhere).
     prescribed: Vec<f64>,
+    /// max |(K p)_f| over the free unknowns of the current step (scale of the KKT residual).
+    lifting_scale: f64,
     pattern: SparsityPattern,
     tabulation: Tabulation<D>,
     solver: CholeskySolver,
@@ -289,6 +291,7 @@ impl<const D: usize> VelocityOperator<D> {
             constrained,
             constrained_cells,
             prescribed: vec![0.0; size],
+            lifting_scale: 0.0,
             pattern,
             tabulation,
             solver: CholeskySolver::analyse(
@@ -707,23 +710,18 @@ impl<const D: usize> VelocityOperator<D> {
         multipliers: &[f64],
     ) -> f64 {
         let force = if self.law.is_linear() && self.implicit.is_none() && self.matrix_is_plain {
-            // H_ff v_f on the free rows (the load is lifted); N(v)_c on the constrained ones
-            let mut force = multiply(&self.matrix, velocity_system);
-            let constrained_force =
-                self.constrained_cell_force(&self.to_cartesian(velocity_system));
-            for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
-                force[dof] = constrained_force[dof];
-            }
-            force
+            // H_ff v_f on the free rows (the load is lifted)
+            multiply(&self.matrix, velocity_system)
         } else {
             self.energy_and_force(velocity_system).1
         };
         self.kkt_residual_with_force(load_system, weights, velocity_system, multipliers, &force)
     }
 
-    /// [`Self::kkt_residual`] with the internal force N(v) (system frame, on every unknown)
-    /// already known. The scale takes the load on the free unknowns and the internal force on
-    /// all (on a constrained unknown, the force the support balances).
+    /// [`Self::kkt_residual`] with the internal force N(v) (system frame) already known. The
+    /// scale takes the load and the internal force on the free unknowns, the friction forces
+    /// and the force K_fc p_c of the prescribed velocities on the free unknowns (zero for the
+    /// paper's u = 0 on Γ1; without it a body moved by its support alone would have no scale).
     fn kkt_residual_with_force(
         &self,
         load_system: &[f64],
@@ -741,7 +739,7 @@ impl<const D: usize> VelocityOperator<D> {
                 .fold(0.0f64, |m, (v, _)| m.max(v.abs()))
         };
         let load_scale = free_largest(load_system);
-        let force_scale = force.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let force_scale = free_largest(force).max(self.lifting_scale);
         for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
             residual[dof] = velocity_system[dof] - self.prescribed[dof];
         }
@@ -863,6 +861,16 @@ impl<const D: usize> VelocityOperator<D> {
                 self.prescribed[dof] = prescribed[dof];
             }
         }
+        // the force of the prescribed velocities on the free unknowns, K_fc p_c (linear 𝒜: its
+        // lifting; nonlinear: its first-order part), in the system frame
+        let lifting = if self.prescribed.iter().any(|&p| p != 0.0) {
+            Some(self.to_system(&self.constrained_cell_force(&self.prescribed)))
+        } else {
+            None
+        };
+        self.lifting_scale = lifting
+            .as_ref()
+            .map_or(0.0, |l| l.iter().fold(0.0f64, |m, v| m.max(v.abs())));
         // F in the system frame, with the explicit normal compliance load −ω_a p_ν on the
         // normal unknown (the implicit one is part of N(v) instead).
         let mut load = self.to_system(data.load);
@@ -880,9 +888,8 @@ impl<const D: usize> VelocityOperator<D> {
         let (velocity, multipliers, stats) = if self.law.is_linear() && self.implicit.is_none() {
             // eliminate the prescribed velocities: F_f − K_fc p_c on the free rows, p_c on the
             // constrained (identity) rows
-            if self.prescribed.iter().any(|&p| p != 0.0) {
-                let lifting = self.to_system(&self.constrained_cell_force(&self.prescribed));
-                for ((f, l), &c) in load.iter_mut().zip(&lifting).zip(&self.constrained) {
+            if let Some(lifting) = &lifting {
+                for ((f, l), &c) in load.iter_mut().zip(lifting).zip(&self.constrained) {
                     if !c {
                         *f -= l;
                     }

@@ -829,8 +829,22 @@ impl<const D: usize> ProblemSetup<D> {
                         map.dirichlet.push(group);
                     }
                 }
-                let mesh = read_msh::<D>(&msh, &map)
-                    .map_err(|e| problem_error(origin, "mesh.gmsh", e.to_string()))?;
+                let mesh = read_msh::<D>(&msh, &map).map_err(|e| {
+                    let message = e.to_string();
+                    // a group named only by a `[[displacement]]` that the file lacks
+                    let key =
+                        file.displacement
+                            .iter()
+                            .position(|part| {
+                                !gmsh.clamped.iter().any(
+                                    |g| matches!(g, GroupFile::Name(name) if *name == part.part),
+                                ) && message.contains(&format!("\"{}\"", part.part))
+                            })
+                            .map_or("mesh.gmsh".to_string(), |i| {
+                                format!("displacement[{i}].part")
+                            });
+                    problem_error(origin, &key, message)
+                })?;
                 // the facets of a part: the Γ1 facets of the same file read with that group
                 // alone as Γ1 (the reader keeps the order of the facets)
                 let mut facets = Vec::new();

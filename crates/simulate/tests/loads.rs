@@ -164,3 +164,100 @@ fn a_load_curve_is_piecewise_linear_and_constant_outside_its_times() {
         assert_eq!(curve.factor(t), expected, "t = {t}");
     }
 }
+
+/// The plate with a hole (Gmsh): its top group pressed down, its right group on a roller.
+const GMSH_PLATE: &str = r#"
+dim = 2
+degree = 1
+final_time = 0.2
+steps = 4
+
+[mesh]
+gmsh = { file = "plate_with_hole_2d.msh", clamped = ["clamped"], traction = ["hole"], contact = ["bottom"] }
+
+[laws]
+viscosity = { kind = "linear", shear = 1.0, bulk = 1.0 }
+elasticity = { kind = "damaged_hooke", shear_modulus = 1.0, lame_lambda = 1.0 }
+damage_source = { kind = "expression", expr = "0" }
+contact = { stiffness = 10.0, friction = 0.3 }
+damage_diffusion = 1.0
+
+[[displacement]]
+part = "top"
+y = "-0.05*t"
+
+[[displacement]]
+part = "right"
+x = "0"
+"#;
+
+fn gmsh_setup(text: &str) -> Result<ProblemSetup<2>, String> {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/plate.toml");
+    let file = verify::case::parse_toml(text, "plate.toml").map_err(|e| e.to_string())?;
+    ProblemSetup::<2>::new(file, &path).map_err(|e| e.to_string())
+}
+
+#[test]
+fn gmsh_groups_take_a_prescribed_displacement_and_a_roller() {
+    let setup = gmsh_setup(GMSH_PLATE).unwrap();
+    let mut simulation = Simulation::new(setup.problem.clone()).unwrap();
+    assert_eq!(simulation.dirichlet_parts(), ["top", "right", "clamped"]);
+    let space = simulation.space().clone();
+    let constrained = simulation.velocity_operator().constrained().to_vec();
+    let (mut top, mut right) = (0, 0);
+    simulation
+        .run(|report| {
+            let t = report.state.time;
+            for node in 0..space.num_nodes() {
+                let x = space.node(node);
+                let u = &report.state.displacement[node * 2..node * 2 + 2];
+                if x[1] == 1.0 && x[0] > 0.0 {
+                    top += 1;
+                    assert!(constrained[node * 2 + 1]);
+                    assert_eq!(u[1], -0.05 * t, "top node {x:?}");
+                    // u_x is free on the top except at the corners of other parts
+                    if x[0] < 2.0 {
+                        assert!(!constrained[node * 2]);
+                    }
+                } else if x[0] == 2.0 && x[1] > 0.0 {
+                    right += 1;
+                    assert!(constrained[node * 2] && !constrained[node * 2 + 1]);
+                    assert_eq!(u[0], 0.0, "right node {x:?}");
+                }
+            }
+            assert!(report.reactions[0][1] < 0.0, "the top is pushed down");
+            Ok(())
+        })
+        .unwrap();
+    assert!(top > 0 && right > 0);
+}
+
+#[test]
+fn gmsh_parts_on_the_contact_group_or_missing_are_refused_naming_the_key() {
+    for (from, to, expected) in [
+        (
+            "part = \"top\"",
+            "part = \"bottom\"",
+            "key `displacement[0].part`: group \"bottom\" is the contact boundary Γ3",
+        ),
+        (
+            "part = \"right\"",
+            "part = \"hole\"",
+            "key `displacement[1].part`: group \"hole\" is a traction group",
+        ),
+        (
+            "part = \"top\"",
+            "part = \"lid\"",
+            "key `displacement[0].part`",
+        ),
+    ] {
+        let text = GMSH_PLATE.replacen(from, to, 1);
+        let Err(message) = gmsh_setup(&text) else {
+            panic!("`{to}` was accepted");
+        };
+        assert!(
+            message.contains("plate.toml") && message.contains(expected),
+            "{message}"
+        );
+    }
+}
