@@ -494,7 +494,10 @@ impl<const D: usize> Simulation<D> {
             .collect()
     }
 
-    /// One step of the scheme: (5.1) and (5.2) concurrently, then (5.4)–(5.5).
+    /// One step of the scheme: (5.1) and (5.2) concurrently, then (5.4)–(5.5). On Γ1 the
+    /// velocity step takes v_c = (u_D(t_n) − u_{n−1,c})/k and u_n = u_D(t_n) is set exactly;
+    /// p_ν and p_τ take the gap at t_{n−1} (the implicit normal compliance at t_n). Returns the
+    /// velocity and damage solutions, the normal pressure of the step and the friction bound.
     pub fn step(&mut self) -> Result<(VelocitySolution, DamageSolution, Vec<f64>, Vec<f64>)> {
         let n = self.state.step + 1;
         let time = n as f64 * self.time_step();

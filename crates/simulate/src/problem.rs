@@ -480,8 +480,9 @@ impl<const D: usize> ProblemSetup<D> {
     }
 
     /// Validates the file and builds the problem; `path` names the file in errors and locates
-    /// the Gmsh mesh. Loads are checked for finite values at the mesh vertices (f0) and at the
-    /// vertices of Γ2 (f2) at t = 0, T/2, T.
+    /// the Gmsh mesh. Loads are checked for finite values at the mesh vertices (f0), at the
+    /// vertices of Γ2 (f2), of Γ3 (g) and of each `[[displacement]]` part (u_D) at
+    /// t = 0, T/2, T (the solver checks g and u_D again wherever and whenever it evaluates them).
     pub fn new(file: ProblemFile, path: &Path) -> Result<Self, VerifyError> {
         let origin = path.display().to_string();
         let origin = origin.as_str();
