@@ -122,7 +122,7 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
         let f3 =
             SVector::<f64, D>::from_column_slice(&exact.contact_traction(laws, &x, t, &normal));
         let r = sigma_n - f3;
-        let penetration = exact.penetration(&state, &x, &nu);
+        let penetration = exact.penetration(&state, &x, t, &nu);
         let (p_normal, p_friction) = (
             laws.contact.normal_pressure(penetration),
             laws.contact.friction_bound(penetration),
@@ -202,6 +202,39 @@ fn zones3d_satisfies_its_strong_form_with_all_zones() {
 /// The cases of the whole model (nonlinear viscosity, wear-modified bound) satisfy their strong
 /// form with all three contact zones and the active damage bound; the wear cases also have a
 /// contact zone where the friction bound (1 − δ p_ν)₊ vanishes.
+#[test]
+fn loads2d_satisfies_its_strong_form_with_all_zones_a_free_roller_component_and_a_negative_gap() {
+    let zones = check_strong_form::<2>("loads2d");
+    assert_all_zones(&zones);
+    let case = load::<2>("loads2d");
+    let exact = &case.exact;
+    // u_D = u on the prescribed parts: nonzero on y = 1; on the roller x = 0, u_x = 0 is
+    // prescribed and the free u_y is not zero
+    let top = [0.3, 1.0];
+    assert!(value(&exact.displacement[0], &top, 1.0).abs() > 1e-3);
+    assert!(value(&exact.displacement[1], &top, 1.0).abs() > 1e-3);
+    let roller = [0.0, 0.7];
+    assert_eq!(value(&exact.displacement[0], &roller, 0.5), 0.0);
+    assert!(value(&exact.displacement[1], &roller, 0.5).abs() > 1e-3);
+    // the gap moves and is negative on part of Γ3 (y = 0) while the body is in contact there
+    let contact = [0.9, 0.0];
+    assert!(value(&exact.gap, &contact, 0.0) > 0.0);
+    assert!(value(&exact.gap, &contact, 1.0) < 0.0);
+    let problem = case.problem(4, 1, 4).unwrap();
+    assert_eq!(problem.data.dirichlet.len(), 2);
+    let names: Vec<&str> = problem
+        .data
+        .dirichlet
+        .iter()
+        .map(|p| p.name.as_str())
+        .collect();
+    assert_eq!(names, ["y_max", "x_min"]);
+    assert!(
+        problem.data.dirichlet[1].components[1].is_none(),
+        "the roller leaves u_y free"
+    );
+}
+
 fn assert_all_zones(zones: &Zones) {
     assert!(
         zones.separation > 0 && zones.stick > 0 && zones.slip > 0 && zones.bound_active > 0,
@@ -352,4 +385,45 @@ fn case_reader_rejects_studies_whose_rates_would_be_undefined_naming_the_key() {
         "diagonal = { cells = [4, 8, 16, 32], steps = [2, 4, 8] }",
     );
     assert!(message.contains("studies.order1.diagonal"), "{message}");
+}
+
+#[test]
+fn case_reader_rejects_a_prescribed_displacement_on_the_contact_side_or_a_bad_component() {
+    for (with, key, expected) in [
+        (
+            "[[displacement]]\npart = \"y_min\"\ncomponents = [\"y\"]\n\n[constants]",
+            "displacement[0].part",
+            "Γ3",
+        ),
+        (
+            "[[displacement]]\npart = \"x_max\"\ncomponents = [\"y\"]\n\n[constants]",
+            "displacement[0].part",
+            "traction",
+        ),
+        (
+            "[[displacement]]\npart = \"x_min\"\ncomponents = [\"w\"]\n\n[constants]",
+            "displacement[0].components[0]",
+            "`w`",
+        ),
+        (
+            "[[displacement]]\npart = \"x_left\"\ncomponents = [\"x\"]\n\n[constants]",
+            "displacement[0].part",
+            "unknown side",
+        ),
+    ] {
+        let message = error_of("[constants]", with);
+        assert!(
+            message.contains("my_case.toml") && message.contains(key) && message.contains(expected),
+            "{message}"
+        );
+    }
+}
+
+#[test]
+fn case_reader_rejects_a_gap_that_is_not_finite() {
+    let message = error_of("gap = \"0.01\"", "gap = \"0.01 + log(x - 0.5)\"");
+    assert!(
+        message.contains("exact.gap") && message.contains("not finite"),
+        "{message}"
+    );
 }

@@ -3,7 +3,8 @@
 //! active damage bound: linear viscosity (zones2d/3d), the nonlinear viscosity of (3.4), mild
 //! and strong (mild2d/3d, strong2d/3d), the wear-modified friction bound (2.12) (wear2d/3d),
 //! laws written in the case file (carreau2d: a viscosity potential and β-dependent moduli), and
-//! the implicit normal compliance with a stiff foundation (implicit2d).
+//! the implicit normal compliance with a stiff foundation (implicit2d), and prescribed
+//! displacement, a roller and a moving, partly negative gap (loads2d).
 //! Each study must pass its verdict (observed least-squares rate ≥ expected − `RATE_TOLERANCE`
 //! for every component bounded by Theorem 5.2), every step's KKT residual must be below 1e-9,
 //! and every case must really show the three contact zones and the active bound.
@@ -215,6 +216,16 @@ fn rates_implicit_contact_2d_order1() {
 #[test]
 fn rates_implicit_contact_2d_order2() {
     studies_2d_order2("implicit2d");
+}
+
+#[test]
+fn rates_prescribed_displacement_roller_moving_gap_2d_order1() {
+    studies_2d_order1("loads2d");
+}
+
+#[test]
+fn rates_prescribed_displacement_roller_moving_gap_2d_order2() {
+    studies_2d_order2("loads2d");
 }
 
 #[test]

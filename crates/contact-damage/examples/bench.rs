@@ -334,7 +334,8 @@ fn problem<const D: usize>(mesh: Arc<Mesh<D>>) -> Problem<D> {
             contact_traction: None,
             damage_supply: None,
             damage_flux: None,
-            gap: Arc::new(|_| GAP),
+            gap: Arc::new(|_, _| GAP),
+            dirichlet: Vec::new(),
             initial_displacement: Arc::new(initial_displacement::<D>),
             initial_damage: Arc::new(|_| 1.0),
         },
@@ -474,6 +475,7 @@ fn measure<const D: usize>(cells: usize) -> contact_damage::Result<BTreeMap<Stri
             normal_pressure: &pressure,
             friction_bound: &bound,
             implicit_contact: None,
+            prescribed: None,
         };
         let settings = VelocitySettings::default();
         let zero = vec![0.0; load.len()];

@@ -9,9 +9,9 @@
 //! a box-constrained quadratic program.
 //!
 //! Modules, one concept each: [`mesh`], [`quadrature`], [`element`], [`space`], [`assembly`],
-//! [`linalg`], [`laws`], [`contact`], [`friction`], [`velocity`], [`obstacle`], [`damage`],
-//! [`stability`] (the step limit of the explicit terms), [`gmsh`] (mesh files), [`vtk`]
-//! (ParaView output), [`atomic`] (atomic file writing),
+//! [`linalg`], [`laws`], [`contact`], [`dirichlet`], [`friction`], [`velocity`], [`obstacle`],
+//! [`damage`], [`stability`] (the step limit of the explicit terms), [`gmsh`] (mesh files),
+//! [`vtk`] (ParaView output), [`atomic`] (atomic file writing),
 //! [`scheme`].
 //!
 //! ```
@@ -38,7 +38,8 @@
 //!     contact_traction: None,
 //!     damage_supply: None,
 //!     damage_flux: None,
-//!     gap: Arc::new(|_| 0.0),
+//!     gap: Arc::new(|_, _| 0.0),
+//!     dirichlet: Vec::new(),
 //!     initial_displacement: Arc::new(|_| [0.0, 0.0]),
 //!     initial_damage: Arc::new(|_| 1.0),
 //! };
@@ -58,6 +59,7 @@ pub mod assembly;
 pub mod atomic;
 pub mod contact;
 pub mod damage;
+pub mod dirichlet;
 pub mod element;
 pub mod error;
 pub mod fields;

@@ -304,6 +304,14 @@ impl<const D: usize> Mesh<D> {
         self.max_diameter
     }
 
+    /// The boundary facets all of whose vertices satisfy `inside` (e.g. a side of a box:
+    /// `|x| x[0] == 0.0`, exact for [`Mesh::box_mesh`], whose side vertices are exact).
+    pub fn boundary_facets_where(&self, inside: impl Fn(&[f64; D]) -> bool) -> Vec<usize> {
+        (0..self.num_facets())
+            .filter(|&f| self.facet(f).iter().all(|&v| inside(&self.vertices[v])))
+            .collect()
+    }
+
     /// Physical gradient of the barycentric coordinate of the vertex opposite facet f.
     fn opposite_barycentric_gradient(&self, f: usize) -> nalgebra::SVector<f64, D> {
         let (_, jacobian) = self.cell_map(self.facet_cells[f]);

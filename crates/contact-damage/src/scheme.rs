@@ -3,11 +3,14 @@
 //! depend only on step n−1 — then update u_n = u_{n−1} + k v_n (5.4)–(5.5). Initial data are
 //! interpolated, u_0 = Π^h u0, β_0 = Π^h β0 (5.3), (5.30).
 
+use crate::assembly::add_facet_integrals;
 use crate::contact::{ContactNodes, ContactStatus};
 use crate::damage::{DamageOperator, DamageSolution};
+use crate::dirichlet::DirichletConstraints;
+pub use crate::dirichlet::PrescribedDisplacement;
 use crate::laws::{ContactLaw, DamageSource, Elasticity, Viscosity};
 use crate::loads::LoadQuadrature;
-use crate::mesh::{BoundaryPart, Mesh};
+use crate::mesh::Mesh;
 use crate::obstacle::{BoxQpSettings, BoxQpStats};
 use crate::space::LagrangeSpace;
 use crate::stability::{step_limit, StepLimit};
@@ -20,6 +23,13 @@ use nalgebra::SVector;
 use std::sync::Arc;
 
 pub use crate::fields::{BoundaryScalarField, BoundaryVectorField, ScalarField, VectorField};
+/// A scalar field of (x, t) evaluated point by point: the gap g and the prescribed
+/// displacement components u_D,i (they are needed at nodes, not at quadrature points).
+pub type PointScalarField<const D: usize> = Arc<dyn Fn(&[f64; D], f64) -> f64 + Send + Sync>;
+/// A vector boundary datum of (x, t, outward normal) evaluated point by point: the traction on
+/// the free components of a part of Γ1.
+pub type PointBoundaryVectorField<const D: usize> =
+    Arc<dyn Fn(&[f64; D], f64, &[f64; D]) -> [f64; D] + Send + Sync>;
 /// A time-independent scalar field of x: g, β0.
 pub type StaticScalarField<const D: usize> = Arc<dyn Fn(&[f64; D]) -> f64 + Send + Sync>;
 /// A time-independent vector field of x: u0.
@@ -53,9 +63,14 @@ pub struct Data<const D: usize> {
     pub damage_supply: Option<ScalarField<D>>,
     /// Damage flux κ ∂β/∂ν on Γ (zero in (2.4); nonzero for manufactured solutions).
     pub damage_flux: Option<BoundaryScalarField<D>>,
-    /// Gap g ≥ 0 on Γ3, measured along the outward normal.
-    pub gap: StaticScalarField<D>,
-    /// u0 (must vanish on Γ1).
+    /// Gap g(x, t) on Γ3, measured along the outward normal. It may move and be negative (a
+    /// rigid obstacle pushed into the body); the explicit scheme (5.1) takes it at t_{n−1},
+    /// with u_{n−1}, the implicit normal compliance at t_n (see [`ContactTreatment`]).
+    pub gap: PointScalarField<D>,
+    /// Parts of Γ1 with a prescribed displacement u = u_D(x, t), some components or all; the
+    /// Γ1 facets of no part are clamped, u = 0 (2.5). Empty: the paper's Γ1.
+    pub dirichlet: Vec<PrescribedDisplacement<D>>,
+    /// u0 (must equal u_D(·, 0) on the prescribed components of Γ1, 0 on the clamped ones).
     pub initial_displacement: StaticVectorField<D>,
     /// β0 with values in [0, 1].
     pub initial_damage: StaticScalarField<D>,
@@ -93,7 +108,9 @@ pub enum ContactTreatment {
     #[default]
     Explicit,
     /// At u_n = u_{n−1} + k v_n (the friction bound stays at u_{n−1}): a strongly monotone step
-    /// solved exactly by generalized Newton, stable for any k (stiff contact).
+    /// solved exactly by generalized Newton, stable for any k (stiff contact). The normal
+    /// compliance takes the gap at t_n, p_ν(u_{n,ν} − g(t_n)); the friction bound stays
+    /// p_τ(u_{n−1,ν} − g(t_{n−1})).
     Implicit,
 }
 
@@ -147,6 +164,9 @@ pub struct StepReport<'a, const D: usize> {
     pub friction_bound: &'a [f64],
     /// Friction multipliers (D−1 per contact node).
     pub multipliers: &'a [f64],
+    /// Resultant reaction ∫ σν dΓ of each part of Γ1 (order of
+    /// [`Simulation::dirichlet_parts`]): the force of the support on the body.
+    pub reactions: &'a [[f64; D]],
     /// Velocity step statistics.
     pub velocity_stats: &'a VelocityStats,
     /// Damage step statistics.
@@ -203,7 +223,7 @@ pub struct Simulation<const D: usize> {
     /// None when the damage is frozen ([`DamageEvolution::Frozen`]).
     damage: Option<DamageOperator<D>>,
     loads: LoadQuadrature<D>,
-    gap: Vec<f64>,
+    dirichlet: DirichletConstraints<D>,
     state: State,
     timings: StepTimings,
 }
@@ -235,8 +255,13 @@ impl<const D: usize> Simulation<D> {
         }
         let space = Arc::new(LagrangeSpace::new(problem.mesh.clone(), problem.degree)?);
         let contact = Arc::new(ContactNodes::new(&space)?);
-        let velocity =
-            VelocityOperator::new(space.clone(), model.viscosity.clone(), contact.clone())?;
+        let dirichlet = DirichletConstraints::new(&space, &problem.data.dirichlet)?;
+        let velocity = VelocityOperator::with_constraints(
+            space.clone(),
+            model.viscosity.clone(),
+            contact.clone(),
+            dirichlet.constrained.clone(),
+        )?;
         let time_step = problem.final_time / problem.steps as f64;
         let damage = match problem.settings.damage_evolution {
             DamageEvolution::Parabolic => Some(DamageOperator::new(
@@ -248,35 +273,26 @@ impl<const D: usize> Simulation<D> {
             DamageEvolution::Frozen => None,
         };
         let loads = LoadQuadrature::new(&space);
-        let gap: Vec<f64> = contact
-            .nodes
-            .iter()
-            .map(|&node| (problem.data.gap)(&space.node(node)))
-            .collect();
-        if let Some(k) = gap.iter().position(|g| !g.is_finite() || *g < 0.0) {
-            return Err(Error::parameter(
-                format!(
-                    "gap at contact node {} {:?}",
-                    contact.nodes[k],
-                    space.node(contact.nodes[k])
-                ),
-                gap[k],
-                "g must be finite and ≥ 0",
-            ));
-        }
-        let displacement = space.interpolate_vector(|x| (problem.data.initial_displacement)(x));
-        for node in space.boundary_nodes(BoundaryPart::Dirichlet) {
-            let u = &displacement[node * D..node * D + D];
-            if u.iter().any(|v| v.abs() > 1e-12) {
+        gap_values(&space, &contact, &problem.data.gap, 0.0)?;
+        let mut displacement = space.interpolate_vector(|x| (problem.data.initial_displacement)(x));
+        let prescribed = dirichlet.values(&space, 0.0)?;
+        for &(dof, owner) in &dirichlet.dofs {
+            let (u, u_d) = (displacement[dof], prescribed[dof]);
+            let matches = (u - u_d).abs() <= 1e-12 * (1.0 + u_d.abs());
+            if !matches {
+                let node = dof / D;
                 return Err(Error::parameter(
                     format!(
-                        "initial_displacement at clamped node {node} {:?}",
-                        space.node(node)
+                        "initial_displacement at node {node} {:?}, component {}, on Γ1 part `{}`",
+                        space.node(node),
+                        dof % D,
+                        dirichlet.names[owner]
                     ),
-                    u.iter().fold(0.0f64, |m, v| m.max(v.abs())),
-                    "u0 must vanish on Γ1 (2.5)",
+                    u,
+                    format!("u0 must equal the prescribed u_D(x, 0) = {u_d} on Γ1 (2.5)"),
                 ));
             }
+            displacement[dof] = u_d;
         }
         let damage_values = space.interpolate_scalar(|x| (problem.data.initial_damage)(x));
         if let Some(i) = damage_values.iter().position(|b| !(0.0..=1.0).contains(b)) {
@@ -306,7 +322,7 @@ impl<const D: usize> Simulation<D> {
             velocity,
             damage,
             loads,
-            gap,
+            dirichlet,
             state,
             timings: StepTimings::default(),
         })
@@ -315,6 +331,24 @@ impl<const D: usize> Simulation<D> {
     /// Wall time spent so far in the loads and the two solves of the steps.
     pub fn timings(&self) -> &StepTimings {
         &self.timings
+    }
+
+    /// Names of the parts of Γ1, in the order of [`StepReport::reactions`]: the parts of
+    /// [`Data::dirichlet`], then [`crate::dirichlet::CLAMPED_PART`] if some Γ1 facet belongs
+    /// to no part.
+    pub fn dirichlet_parts(&self) -> &[String] {
+        &self.dirichlet.names
+    }
+
+    /// The resultant reaction of each part of Γ1 (order of [`Self::dirichlet_parts`]) from the
+    /// nodal reactions of a velocity step ([`VelocitySolution::reaction`]).
+    pub fn part_reactions(&self, reaction: &[f64]) -> Vec<[f64; D]> {
+        self.dirichlet.resultants(reaction)
+    }
+
+    /// g(a, t) at the contact nodes; a non-finite value is an error naming the node.
+    pub fn gap_at(&self, time: f64) -> Result<Vec<f64>> {
+        gap_values(&self.space, &self.contact, &self.problem.data.gap, time)
     }
 
     /// The current state.
@@ -365,13 +399,15 @@ impl<const D: usize> Simulation<D> {
     /// Loads of step n at t_n from the state n−1: the velocity load (Cartesian, node-major) and
     /// the damage source ⟨φ(ε(u_{n−1}), β_{n−1}) + q(t_n), φ_a⟩ + ∫_Γ κ∂β/∂ν φ_a.
     pub fn step_loads(&self, time: f64) -> (Vec<f64>, Vec<f64>) {
-        self.loads.assemble(
+        let (mut velocity_load, damage_source) = self.loads.assemble(
             &self.space,
             &self.problem.model,
             &self.problem.data,
             time,
             &self.state,
-        )
+        );
+        self.add_part_tractions(time, &mut velocity_load);
+        (velocity_load, damage_source)
     }
 
     /// The step limit of the explicit terms of (5.1) at the current state ([`crate::stability`]):
@@ -382,32 +418,72 @@ impl<const D: usize> Simulation<D> {
             &self.velocity,
             self.problem.model.elasticity.as_ref(),
             self.problem.model.contact.as_ref(),
-            &self.penetrations(),
+            &self.penetrations(&self.gap_at(self.state.time)?),
             self.problem.settings.contact == ContactTreatment::Explicit,
         )
     }
 
-    /// Penetrations u_{n−1,ν}(a) − g(a) at the contact nodes.
-    fn penetrations(&self) -> Vec<f64> {
+    /// ∫ f·φ_a e_i over the facets of each part of Γ1 with a traction, on its free components i.
+    fn add_part_tractions(&self, time: f64, velocity_load: &mut [f64]) {
+        let space = &*self.space;
+        let degree = 2 * space.degree() + 2;
+        for (p, part) in self.dirichlet.parts.iter().enumerate() {
+            let Some(traction) = &part.traction else {
+                continue;
+            };
+            let owner = &self.dirichlet.facet_owner;
+            add_facet_integrals(
+                space,
+                degree,
+                D,
+                |f| owner[f] == Some(p),
+                |x, normal, out| {
+                    out.copy_from_slice(&traction(x, time, normal));
+                    for (value, component) in out.iter_mut().zip(&part.components) {
+                        if component.is_some() {
+                            *value = 0.0;
+                        }
+                    }
+                },
+                velocity_load,
+            );
+        }
+    }
+
+    /// Penetrations u_ν(a) − g(a) of the current state at the contact nodes, for the gap
+    /// values `gap` (of [`Self::gap_at`]).
+    fn penetrations(&self, gap: &[f64]) -> Vec<f64> {
         (0..self.contact.len())
             .map(|k| {
                 let node = self.contact.nodes[k];
                 let u = SVector::<f64, D>::from_column_slice(
                     &self.state.displacement[node * D..node * D + D],
                 );
-                u.dot(&self.contact.normal(k)) - self.gap[k]
+                u.dot(&self.contact.normal(k)) - gap[k]
             })
             .collect()
     }
 
-    /// One step of the scheme: (5.1) and (5.2) concurrently, then (5.4)–(5.5).
+    /// One step of the scheme: (5.1) and (5.2) concurrently, then (5.4)–(5.5). On Γ1 the
+    /// velocity step takes v_c = (u_D(t_n) − u_{n−1,c})/k and u_n = u_D(t_n) is set exactly;
+    /// p_ν and p_τ take the gap at t_{n−1} (the implicit normal compliance at t_n). Returns the
+    /// velocity and damage solutions, the normal pressure of the step and the friction bound.
     pub fn step(&mut self) -> Result<(VelocitySolution, DamageSolution, Vec<f64>, Vec<f64>)> {
         let n = self.state.step + 1;
         let time = n as f64 * self.time_step();
         let started = std::time::Instant::now();
         let (velocity_load, damage_source) = self.step_loads(time);
         self.timings.loads += started.elapsed();
-        let penetrations = self.penetrations();
+        let k = self.time_step();
+        let previous_time = (n - 1) as f64 * k;
+        // p_ν and p_τ of (5.1) at u_{n−1} − g(t_{n−1})
+        let penetrations = self.penetrations(&self.gap_at(previous_time)?);
+        // u_D(t_n) on Γ1: v_c = (u_D(t_n) − u_{n−1,c})/k
+        let prescribed_displacement = self.dirichlet.values(&self.space, time)?;
+        let mut prescribed = vec![0.0; prescribed_displacement.len()];
+        for &(dof, _) in &self.dirichlet.dofs {
+            prescribed[dof] = (prescribed_displacement[dof] - self.state.displacement[dof]) / k;
+        }
         let law = &self.problem.model.contact;
         let normal_pressure: Vec<f64> = penetrations
             .iter()
@@ -422,11 +498,17 @@ impl<const D: usize> Simulation<D> {
             load: &velocity_load,
             normal_pressure: &normal_pressure,
             friction_bound: &friction_bound,
-            implicit_contact: implicit.then(|| ImplicitNormalCompliance {
-                previous_penetration: penetrations,
-                time_step: self.time_step(),
-                law: law.clone(),
-            }),
+            implicit_contact: if implicit {
+                Some(ImplicitNormalCompliance {
+                    // u_{n−1,ν} − g(t_n): the end-of-step penetration is this plus k v_ν
+                    previous_penetration: self.penetrations(&self.gap_at(time)?),
+                    time_step: k,
+                    law: law.clone(),
+                })
+            } else {
+                None
+            },
+            prescribed: Some(&prescribed),
         };
         let settings = self.problem.settings.velocity;
         let previous_velocity = &self.state.velocity;
@@ -455,9 +537,12 @@ impl<const D: usize> Simulation<D> {
         self.timings.damage += damage_time;
         let velocity = velocity?;
         let damage = damage?;
-        let k = self.time_step();
         for (u, v) in self.state.displacement.iter_mut().zip(&velocity.velocity) {
             *u += k * v;
+        }
+        // u_n = u_D(t_n) on Γ1 exactly (u_{n−1} + k v_n agrees up to rounding)
+        for &(dof, _) in &self.dirichlet.dofs {
+            self.state.displacement[dof] = prescribed_displacement[dof];
         }
         self.state.velocity.clone_from(&velocity.velocity);
         self.state.damage.clone_from(&damage.damage);
@@ -466,7 +551,7 @@ impl<const D: usize> Simulation<D> {
         // the pressure the step used: p_ν at u_{n−1} (5.1), or at u_n = u_{n−1} + k v_n
         let normal_pressure = if implicit {
             let law = &self.problem.model.contact;
-            self.penetrations()
+            self.penetrations(&self.gap_at(time)?)
                 .iter()
                 .map(|&r| law.normal_pressure(r))
                 .collect()
@@ -516,6 +601,7 @@ impl<const D: usize> Simulation<D> {
             if damage.stats.upper_active > 0 {
                 summary.steps_with_damage_bound[1] += 1;
             }
+            let reactions = self.part_reactions(&velocity.reaction);
             observer(&StepReport {
                 state: &self.state,
                 space: &self.space,
@@ -524,10 +610,36 @@ impl<const D: usize> Simulation<D> {
                 normal_pressure: &normal_pressure,
                 friction_bound: &friction_bound,
                 multipliers: &velocity.multipliers,
+                reactions: &reactions,
                 velocity_stats: &velocity.stats,
                 damage_stats: &damage.stats,
             })?;
         }
         Ok(summary)
     }
+}
+
+/// g(a, t) at the contact nodes a; a non-finite value is an [`Error::NonFinite`] naming the
+/// node, its position and t.
+fn gap_values<const D: usize>(
+    space: &LagrangeSpace<D>,
+    contact: &ContactNodes<D>,
+    gap: &PointScalarField<D>,
+    time: f64,
+) -> Result<Vec<f64>> {
+    contact
+        .nodes
+        .iter()
+        .map(|&node| {
+            let x = space.node(node);
+            let value = gap(&x, time);
+            if value.is_finite() {
+                Ok(value)
+            } else {
+                Err(Error::NonFinite(format!(
+                    "gap g = {value} at contact node {node} {x:?}, t = {time}"
+                )))
+            }
+        })
+        .collect()
 }

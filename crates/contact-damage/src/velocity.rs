@@ -6,7 +6,18 @@
 //! J(v) = Σ_K ∫_K Φ(ε(v)) dx − ⟨F, v⟩ + Σ_a w_a |v_τ(a)|,   w_a = ω_a s_a,
 //!
 //! (Φ the potential of 𝒜, F the load of the step). Unknowns are nodal velocities, expressed in
-//! the frame (ν_a, t_1, …) at contact nodes; clamped nodes (Γ1) keep identity rows.
+//! the frame (ν_a, t_1, …) at contact nodes; constrained unknowns (Γ1) keep identity rows.
+//!
+//! **Prescribed displacement.** On a constrained unknown c (a Cartesian component of a node of
+//! Γ1; contact nodes are never constrained) the velocity is given, v_c = p_c (the scheme passes
+//! p_c = (u_D(t_n) − u_{n−1,c})/k, so that u_n = u_D(t_n)); the paper's u = 0 on Γ1 is p = 0.
+//! The constrained unknowns are eliminated: their rows are identity rows, their columns are
+//! dropped from the operator, and the coupling is moved to the right-hand side (linear 𝒜:
+//! F_f − K_fc p_c; nonlinear 𝒜: the Newton iterates carry v_c = p_c and the increments vanish
+//! there). The friction condensation acts on the free tangential contact unknowns only, and the
+//! KKT residual is measured on the free unknowns (plus |v_c − p_c| on the constrained ones). The
+//! reaction on a constrained unknown is the residual of the equilibrium there,
+//! R_c = ⟨𝒜ε(v), ε(φ_c)⟩ − F_c = ∫_Γ1 σν·φ_c dΓ (the force of the support on the body).
 //!
 //! **Algorithm.** Proximal Newton, a generalized Newton method on the whole nonsmooth system: at
 //! an iterate v_k the smooth part is replaced by its second-order model with the exact tangent
@@ -109,6 +120,9 @@ pub struct VelocityData<'a> {
     /// `Some` for the implicit variant of (5.1): the normal compliance is taken at
     /// u_n = u_{n−1} + k v_n instead of u_{n−1} (`normal_pressure` is then not used).
     pub implicit_contact: Option<ImplicitNormalCompliance>,
+    /// Prescribed velocities p_c on the constrained unknowns (Cartesian, node-major, the size of
+    /// `load`; the entries of free unknowns are ignored). `None` is p = 0 (u = 0 on Γ1, (2.5)).
+    pub prescribed: Option<&'a [f64]>,
 }
 
 /// The implicit normal compliance of a velocity step: ⟨p_ν(u_{n−1,ν} + k v_ν − g), w_ν⟩ in place
@@ -144,18 +158,28 @@ pub struct VelocitySolution {
     pub multipliers: Vec<f64>,
     /// Status of each contact node.
     pub status: Vec<ContactStatus>,
+    /// Reactions R_c = ⟨𝒜ε(v), ε(φ_c)⟩ − F_c on the constrained unknowns (Cartesian,
+    /// node-major; zero on free unknowns): the force of the support on the body.
+    pub reaction: Vec<f64>,
     /// Solver statistics.
     pub stats: VelocityStats,
 }
 
 /// Linear algebra of the velocity step for one mesh, law and contact boundary: the assembly
-/// pattern (with frames and clamped rows), the Cholesky solver (symbolic analysis once) and
+/// pattern (with frames and constrained rows), the Cholesky solver (symbolic analysis once) and
 /// the condensed Schur complement on the tangential contact unknowns.
 pub struct VelocityOperator<const D: usize> {
     space: Arc<LagrangeSpace<D>>,
     law: Arc<dyn Viscosity<D>>,
     contact: Arc<ContactNodes<D>>,
-    clamped: Vec<bool>,
+    /// Constrained unknowns (Cartesian components of Γ1 nodes), node-major.
+    constrained: Vec<bool>,
+    /// Cells with a constrained unknown (where the reactions and the lifting are assembled).
+    constrained_cells: Vec<usize>,
+    /// Prescribed velocities of the current step on the constrained unknowns (zero elsewhere).
+    prescribed: Vec<f64>,
+    /// max |(K p)_f| over the free unknowns of the current step (scale of the KKT residual).
+    lifting_scale: f64,
     pattern: SparsityPattern,
     tabulation: Tabulation<D>,
     solver: CholeskySolver,
@@ -173,33 +197,69 @@ pub struct VelocityOperator<const D: usize> {
 }
 
 impl<const D: usize> VelocityOperator<D> {
-    /// Builds the pattern and does the symbolic analysis (expensive, once per mesh and law).
+    /// Builds the pattern and does the symbolic analysis (expensive, once per mesh and law),
+    /// with every component of every node of Γ1 constrained (the paper's u = 0 on Γ1, (2.5)).
     pub fn new(
         space: Arc<LagrangeSpace<D>>,
         law: Arc<dyn Viscosity<D>>,
         contact: Arc<ContactNodes<D>>,
     ) -> Result<Self> {
+        let mut constrained = vec![false; space.num_nodes() * D];
+        for node in space.boundary_nodes(BoundaryPart::Dirichlet) {
+            constrained[node * D..node * D + D].fill(true);
+        }
+        Self::with_constraints(space, law, contact, constrained)
+    }
+
+    /// [`Self::new`] with the constrained unknowns given (Cartesian components, node-major):
+    /// rollers and symmetry planes constrain some components of a node only. A contact node
+    /// may not be constrained ([`Error::InvalidInput`] naming the node).
+    pub fn with_constraints(
+        space: Arc<LagrangeSpace<D>>,
+        law: Arc<dyn Viscosity<D>>,
+        contact: Arc<ContactNodes<D>>,
+        constrained: Vec<bool>,
+    ) -> Result<Self> {
         law.validate()?;
         let n_nodes = space.num_nodes();
-        let mut clamped = vec![false; n_nodes];
-        for node in space.boundary_nodes(BoundaryPart::Dirichlet) {
-            clamped[node] = true;
+        if constrained.len() != n_nodes * D {
+            return Err(Error::InvalidInput(format!(
+                "{} constraint flags for {} unknowns",
+                constrained.len(),
+                n_nodes * D
+            )));
+        }
+        if let Some(&node) = contact
+            .nodes
+            .iter()
+            .find(|&&node| constrained[node * D..node * D + D].contains(&true))
+        {
+            return Err(Error::InvalidInput(format!(
+                "contact node {node} at {:?} has a constrained component (Γ1 and Γ3 overlap)",
+                space.node(node)
+            )));
         }
         let size = n_nodes * D;
         let n_local = space.nodes_per_cell() * D;
         let n_cells = space.mesh().num_cells();
-        let clamped_count = clamped.iter().filter(|&&c| c).count();
-        let mut pairs = Vec::with_capacity(n_cells * n_local * n_local + clamped_count * D);
+        let constrained_count = constrained.iter().filter(|&&c| c).count();
+        let mut pairs = Vec::with_capacity(n_cells * n_local * n_local + constrained_count);
         let mut dofs = vec![0isize; n_local];
+        let mut constrained_cells = Vec::new();
         for cell in 0..n_cells {
+            let mut touches = false;
             for (a, &node) in space.cell_nodes(cell).iter().enumerate() {
                 for i in 0..D {
-                    dofs[a * D + i] = if clamped[node] {
+                    dofs[a * D + i] = if constrained[node * D + i] {
+                        touches = true;
                         -1
                     } else {
                         (node * D + i) as isize
                     };
                 }
+            }
+            if touches {
+                constrained_cells.push(cell);
             }
             for &row in &dofs {
                 for &col in &dofs {
@@ -207,11 +267,8 @@ impl<const D: usize> VelocityOperator<D> {
                 }
             }
         }
-        for (node, _) in clamped.iter().enumerate().filter(|(_, &c)| c) {
-            for i in 0..D {
-                let dof = (node * D + i) as isize;
-                pairs.push(Pair::new(dof, dof));
-            }
+        for (dof, _) in constrained.iter().enumerate().filter(|(_, &c)| c) {
+            pairs.push(Pair::new(dof as isize, dof as isize));
         }
         let pattern = SparsityPattern::from_pairs(size, &pairs)?;
         drop(pairs);
@@ -231,7 +288,10 @@ impl<const D: usize> VelocityOperator<D> {
             space,
             law,
             contact,
-            clamped,
+            constrained,
+            constrained_cells,
+            prescribed: vec![0.0; size],
+            lifting_scale: 0.0,
             pattern,
             tabulation,
             solver: CholeskySolver::analyse(
@@ -296,7 +356,7 @@ impl<const D: usize> VelocityOperator<D> {
         &self.contact
     }
 
-    /// Number of unknowns (including clamped ones, which carry identity rows).
+    /// Number of unknowns (including constrained ones, which carry identity rows).
     pub fn size(&self) -> usize {
         self.pattern.size()
     }
@@ -313,7 +373,7 @@ impl<const D: usize> VelocityOperator<D> {
         let block = n_local * n_local;
         let n_cells = self.space.mesh().num_cells();
         let mut values = vec![0.0; self.pattern.value_count()];
-        let (cell_values, clamped_values) = values.split_at_mut(n_cells * block);
+        let (cell_values, constrained_values) = values.split_at_mut(n_cells * block);
         cell_values
             .par_chunks_mut(block)
             .enumerate()
@@ -328,15 +388,12 @@ impl<const D: usize> VelocityOperator<D> {
                 );
                 self.rotate_element_matrix(cell, out);
             });
-        clamped_values.fill(1.0);
+        constrained_values.fill(1.0);
         let mut matrix = self.pattern.matrix(&values)?;
         if let (Some(implicit), Some(velocity)) = (&self.implicit, velocity_system) {
             // the tangent of the implicit normal compliance: ω_a k p_ν′(r_a + k v_ν(a))
             for (k, &node) in self.contact.nodes.iter().enumerate() {
                 let dof = node * D;
-                if self.clamped[node] {
-                    continue;
-                }
                 let stiffness = self.contact.weights[k]
                     * implicit.time_step
                     * implicit
@@ -376,18 +433,93 @@ impl<const D: usize> VelocityOperator<D> {
         }
     }
 
-    /// Cartesian node-major vector → system frame (frames at contact nodes, zero on Γ1).
+    /// Cartesian node-major vector → system frame (frames at contact nodes, zero on the
+    /// constrained unknowns).
     pub fn to_system(&self, cartesian: &[f64]) -> Vec<f64> {
+        let mut system = self.rotate_to_system(cartesian);
+        for (value, _) in system.iter_mut().zip(&self.constrained).filter(|(_, &c)| c) {
+            *value = 0.0;
+        }
+        system
+    }
+
+    /// Cartesian node-major vector → system frame, keeping the constrained entries.
+    fn rotate_to_system(&self, cartesian: &[f64]) -> Vec<f64> {
         let mut system = cartesian.to_vec();
         for (k, &node) in self.contact.nodes.iter().enumerate() {
             let local = self.contact.frames[k].transpose()
                 * SVector::<f64, D>::from_column_slice(&cartesian[node * D..node * D + D]);
             system[node * D..node * D + D].copy_from_slice(local.as_slice());
         }
-        for (node, _) in self.clamped.iter().enumerate().filter(|(_, &c)| c) {
-            system[node * D..node * D + D].fill(0.0);
+        system
+    }
+
+    /// A start vector in the system frame: `to_system(cartesian)` with the prescribed
+    /// velocities of the step on the constrained unknowns.
+    fn start_vector(&self, cartesian: &[f64]) -> Vec<f64> {
+        let mut system = self.to_system(cartesian);
+        for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
+            system[dof] = self.prescribed[dof];
         }
         system
+    }
+
+    /// The constrained unknowns (Cartesian components, node-major).
+    pub fn constrained(&self) -> &[bool] {
+        &self.constrained
+    }
+
+    /// ⟨𝒜ε(v), ε(φ_a e_i)⟩ (Cartesian) summed over the cells that carry a constrained unknown
+    /// only: exact on the constrained unknowns, and exact everywhere for a v that vanishes
+    /// outside those cells (the lifting K p of the prescribed velocities, linear 𝒜).
+    fn constrained_cell_force(&self, velocity_cartesian: &[f64]) -> Vec<f64> {
+        let n_local = self.space.nodes_per_cell() * D;
+        let tab = &self.tabulation;
+        let n = tab.nodes;
+        let mut locals = vec![0.0; self.constrained_cells.len() * n_local];
+        locals
+            .par_chunks_mut(n_local)
+            .zip(&self.constrained_cells)
+            .for_each(|(out, &cell)| {
+                let geometry = self.space.geometry(cell);
+                let nodes = self.space.cell_nodes(cell);
+                let mut grads = [SVector::<f64, D>::zeros(); 10];
+                for q in 0..tab.len() {
+                    crate::assembly::physical_gradients(geometry, tab, q, &mut grads);
+                    let rate =
+                        crate::assembly::field_strain(nodes, &grads[..n], velocity_cartesian);
+                    let stress = self.law.stress(&rate) * (tab.weights[q] * geometry.det);
+                    for a in 0..n {
+                        let traction = stress * grads[a];
+                        for i in 0..D {
+                            out[a * D + i] += traction[i];
+                        }
+                    }
+                }
+            });
+        let mut force = vec![0.0; self.size()];
+        for (chunk, &cell) in locals.chunks(n_local).zip(&self.constrained_cells) {
+            for (a, &node) in self.space.cell_nodes(cell).iter().enumerate() {
+                for i in 0..D {
+                    force[node * D + i] += chunk[a * D + i];
+                }
+            }
+        }
+        force
+    }
+
+    /// Reactions R_c = ⟨𝒜ε(v), ε(φ_c)⟩ − F_c on the constrained unknowns (Cartesian load and
+    /// velocity; zero on the free unknowns): the residual of the equilibrium there.
+    pub fn reactions(&self, load_cartesian: &[f64], velocity_cartesian: &[f64]) -> Vec<f64> {
+        let mut reaction = self.constrained_cell_force(velocity_cartesian);
+        for ((r, f), &c) in reaction
+            .iter_mut()
+            .zip(load_cartesian)
+            .zip(&self.constrained)
+        {
+            *r = if c { *r - f } else { 0.0 };
+        }
+        reaction
     }
 
     /// System frame → Cartesian node-major.
@@ -483,7 +615,7 @@ impl<const D: usize> VelocityOperator<D> {
     }
 
     /// The cell energies ∫_K Φ(ε(v)) dx and the internal force vector ⟨𝒜ε(v), ε(φ_a e_i)⟩ in
-    /// the system frame.
+    /// the system frame (on every unknown, constrained ones included).
     fn energy_and_force(&self, velocity_system: &[f64]) -> (Vec<f64>, Vec<f64>) {
         let cartesian = self.to_cartesian(velocity_system);
         let n_local = self.space.nodes_per_cell() * D;
@@ -522,14 +654,10 @@ impl<const D: usize> VelocityOperator<D> {
                 }
             }
         }
-        let mut force = self.to_system(&force);
+        let mut force = self.rotate_to_system(&force);
         if let Some(implicit) = &self.implicit {
             // Σ_a ω_a P(r_a + k v_ν(a))/k and its gradient ω_a p_ν(r_a + k v_ν(a)) e_ν
             for (k, &node) in self.contact.nodes.iter().enumerate() {
-                if self.clamped[node] {
-                    energy.push(0.0);
-                    continue;
-                }
                 let penetration = implicit.penetration(k, velocity_system[node * D]);
                 let weight = self.contact.weights[k];
                 energy.push(weight * implicit.law.normal_energy(penetration) / implicit.time_step);
@@ -563,9 +691,10 @@ impl<const D: usize> VelocityOperator<D> {
             .sum()
     }
 
-    /// Relative KKT residual of (5.1) for (v, λ) on the full system:
+    /// Relative KKT residual of (5.1) for (v, λ) on the free unknowns:
     /// max of ‖N(v) − F + E_c W λ‖_∞ / max(‖F‖_∞, ‖N(v)‖_∞, ‖E_c W λ‖_∞) (stationarity,
-    /// relative to the largest of the forces it balances), max_a (|λ_a| − 1)₊ (dual
+    /// relative to the largest of the forces it balances; on a constrained unknown the entry
+    /// is |v_c − p_c| instead), max_a (|λ_a| − 1)₊ (dual
     /// feasibility) and max over slipping nodes of |λ_a − v_τ(a)/|v_τ(a)||
     /// (complementarity); stick nodes have v_τ(a) = 0 exactly.
     ///
@@ -581,6 +710,7 @@ impl<const D: usize> VelocityOperator<D> {
         multipliers: &[f64],
     ) -> f64 {
         let force = if self.law.is_linear() && self.implicit.is_none() && self.matrix_is_plain {
+            // H_ff v_f on the free rows (the load is lifted)
             multiply(&self.matrix, velocity_system)
         } else {
             self.energy_and_force(velocity_system).1
@@ -588,7 +718,10 @@ impl<const D: usize> VelocityOperator<D> {
         self.kkt_residual_with_force(load_system, weights, velocity_system, multipliers, &force)
     }
 
-    /// [`Self::kkt_residual`] with the internal force N(v) (system frame) already known.
+    /// [`Self::kkt_residual`] with the internal force N(v) (system frame) already known. The
+    /// scale takes the load and the internal force on the free unknowns, the friction forces
+    /// and the force K_fc p_c of the prescribed velocities on the free unknowns (zero for the
+    /// paper's u = 0 on Γ1; without it a body moved by its support alone would have no scale).
     fn kkt_residual_with_force(
         &self,
         load_system: &[f64],
@@ -598,10 +731,17 @@ impl<const D: usize> VelocityOperator<D> {
         force: &[f64],
     ) -> f64 {
         let mut residual: Vec<f64> = force.iter().zip(load_system).map(|(n, f)| n - f).collect();
-        for (node, _) in self.clamped.iter().enumerate().filter(|(_, &c)| c) {
-            for i in 0..D {
-                residual[node * D + i] = velocity_system[node * D + i];
-            }
+        let free_largest = |values: &[f64]| {
+            values
+                .iter()
+                .zip(&self.constrained)
+                .filter(|(_, &c)| !c)
+                .fold(0.0f64, |m, (v, _)| m.max(v.abs()))
+        };
+        let load_scale = free_largest(load_system);
+        let force_scale = free_largest(force).max(self.lifting_scale);
+        for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
+            residual[dof] = velocity_system[dof] - self.prescribed[dof];
         }
         let g = D - 1;
         let mut worst: f64 = 0.0;
@@ -624,8 +764,8 @@ impl<const D: usize> VelocityOperator<D> {
         let friction_force = (0..self.contact.len())
             .map(|k| weights[k] * largest(&multipliers[k * g..(k + 1) * g]))
             .fold(0.0f64, f64::max);
-        let scale = largest(load_system)
-            .max(largest(force))
+        let scale = load_scale
+            .max(force_scale)
             .max(friction_force)
             .max(f64::MIN_POSITIVE);
         let stationarity = residual.iter().fold(0.0f64, |m, r| m.max(r.abs())) / scale;
@@ -700,6 +840,37 @@ impl<const D: usize> VelocityOperator<D> {
                 )));
             }
         }
+        self.prescribed.fill(0.0);
+        if let Some(prescribed) = data.prescribed {
+            if prescribed.len() != size {
+                return Err(Error::InvalidInput(format!(
+                    "velocity step: {} prescribed velocities for {size} unknowns",
+                    prescribed.len()
+                )));
+            }
+            for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
+                if !prescribed[dof].is_finite() {
+                    return Err(Error::NonFinite(format!(
+                        "prescribed velocity {} at node {} ({:?}), component {}",
+                        prescribed[dof],
+                        dof / D,
+                        self.space.node(dof / D),
+                        dof % D
+                    )));
+                }
+                self.prescribed[dof] = prescribed[dof];
+            }
+        }
+        // the force of the prescribed velocities on the free unknowns, K_fc p_c (linear 𝒜: its
+        // lifting; nonlinear: its first-order part), in the system frame
+        let lifting = if self.prescribed.iter().any(|&p| p != 0.0) {
+            Some(self.to_system(&self.constrained_cell_force(&self.prescribed)))
+        } else {
+            None
+        };
+        self.lifting_scale = lifting
+            .as_ref()
+            .map_or(0.0, |l| l.iter().fold(0.0f64, |m, v| m.max(v.abs())));
         // F in the system frame, with the explicit normal compliance load −ω_a p_ν on the
         // normal unknown (the implicit one is part of N(v) instead).
         let mut load = self.to_system(data.load);
@@ -715,6 +886,18 @@ impl<const D: usize> VelocityOperator<D> {
             self.linearized_at = None;
         }
         let (velocity, multipliers, stats) = if self.law.is_linear() && self.implicit.is_none() {
+            // eliminate the prescribed velocities: F_f − K_fc p_c on the free rows, p_c on the
+            // constrained (identity) rows
+            if let Some(lifting) = &lifting {
+                for ((f, l), &c) in load.iter_mut().zip(lifting).zip(&self.constrained) {
+                    if !c {
+                        *f -= l;
+                    }
+                }
+            }
+            for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
+                load[dof] = self.prescribed[dof];
+            }
             self.solve_linear(&load, &weights, start, settings)?
         } else {
             self.solve_nonlinear(&load, &weights, start, settings)?
@@ -740,10 +923,13 @@ impl<const D: usize> VelocityOperator<D> {
                 }
             })
             .collect();
+        let velocity = self.to_cartesian(&velocity);
+        let reaction = self.reactions(data.load, &velocity);
         Ok(VelocitySolution {
-            velocity: self.to_cartesian(&velocity),
+            velocity,
             multipliers,
             status,
+            reaction,
             stats,
         })
     }
@@ -760,7 +946,7 @@ impl<const D: usize> VelocityOperator<D> {
     ) -> Result<(Vec<f64>, Vec<f64>, VelocityStats)> {
         let mut stats = VelocityStats::default();
         let mut multipliers = vec![0.0; self.contact.len() * (D - 1)];
-        let mut velocity = self.to_system(start);
+        let mut velocity = self.start_vector(start);
         let mut history: Vec<f64> = Vec::new();
         if !self.matrix_is_plain {
             // a Newton tangent (implicit contact) replaced the operator of the run
@@ -846,7 +1032,7 @@ impl<const D: usize> VelocityOperator<D> {
     ) -> Result<(Vec<f64>, Vec<f64>, VelocityStats)> {
         let mut stats = VelocityStats::default();
         let target = settings.tolerance * NEWTON_HEADROOM;
-        let mut velocity = self.to_system(start);
+        let mut velocity = self.start_vector(start);
         let mut point = self.evaluate(load, weights, &velocity);
         let mut model_multipliers = point.multipliers.clone();
         let mut history: Vec<f64> = Vec::new();
@@ -879,8 +1065,13 @@ impl<const D: usize> VelocityOperator<D> {
                 self.linearized_at = Some(velocity.clone());
             }
             // the Newton model around v in increment form: b − Hv = F − N(v)
-            let minus_gradient: Vec<f64> =
-                load.iter().zip(&point.force).map(|(f, n)| f - n).collect();
+            // (zero on the constrained unknowns: the iterates keep v_c = p_c)
+            let minus_gradient: Vec<f64> = load
+                .iter()
+                .zip(&point.force)
+                .zip(&self.constrained)
+                .map(|((f, n), &c)| if c { 0.0 } else { f - n })
+                .collect();
             let mut friction_settings = settings.friction;
             friction_settings.tolerance = (friction_settings.tolerance * NEWTON_HEADROOM)
                 .max(MIN_FRICTION_TOLERANCE)

@@ -42,6 +42,7 @@ fn velocity_kkt<const D: usize>(
         normal_pressure: &pressure,
         friction_bound: &bound,
         implicit_contact: None,
+        prescribed: None,
     };
     let start: Vec<f64> = (0..n).map(|_| rng.symmetric()).collect();
     let solution = operator
@@ -207,6 +208,7 @@ fn velocity_step_with_nonlinear_viscosity_satisfies_kkt() {
         normal_pressure: &pressure,
         friction_bound: &bound,
         implicit_contact: None,
+        prescribed: None,
     };
     let solution = operator
         .solve(&data, &vec![0.0; n], &VelocitySettings::default())

@@ -68,7 +68,7 @@ fn final_error<const D: usize>(mesh: Mesh<D>, steps: usize) -> f64 {
     }));
     data.initial_damage = Arc::new(|_| damage(0.0));
     // Γ3 exists but the gap keeps it separated: the contact code runs with p_ν = 0
-    data.gap = Arc::new(|_| 1.0);
+    data.gap = Arc::new(|_, _| 1.0);
     let final_time = 1.0;
     let mut simulation =
         Simulation::new(common::problem(mesh, 1, data, final_time, steps)).unwrap();

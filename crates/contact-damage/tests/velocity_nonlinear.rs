@@ -107,6 +107,7 @@ fn solve_random<const D: usize>(
         normal_pressure: &pressure,
         friction_bound: &bound,
         implicit_contact: None,
+        prescribed: None,
     };
     let start: Vec<f64> = (0..n).map(|_| start_size * rng.symmetric()).collect();
     let solution = operator

@@ -50,6 +50,111 @@ pub fn parse_sides<const D: usize>(
     }
     Ok(sides)
 }
+/// A prescribed side of a box: axis, end (0 = min, 1 = max) and the prescribed components.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PrescribedSide<const D: usize> {
+    /// Axis of the side's normal.
+    pub axis: usize,
+    /// 0 for the side x_axis = lower, 1 for upper.
+    pub end: usize,
+    /// Prescribed components.
+    pub components: [bool; D],
+}
+
+/// The side name (`x_min`, …) as (axis, end), if it names a side in dimension D.
+pub fn side_index<const D: usize>(key: &str) -> Option<(usize, usize)> {
+    let (axis, end) = key.split_once('_')?;
+    let axis = ["x", "y", "z"].iter().position(|n| *n == axis)?;
+    let end = match end {
+        "min" => 0,
+        "max" => 1,
+        _ => return None,
+    };
+    (axis < D).then_some((axis, end))
+}
+
+/// A component name (`x`, `y`, `z`) as its index in dimension D.
+pub fn component_index<const D: usize>(name: &str) -> Option<usize> {
+    ["x", "y", "z"]
+        .iter()
+        .position(|n| *n == name)
+        .filter(|&i| i < D)
+}
+
+/// Checks `[[displacement]]` (key prefix `key`) against the box sides and marks the prescribed
+/// sides as Γ1: a side must be `clamped` or unlisted (`contact` overlaps Γ3, `traction` is Γ2:
+/// errors), listed once, with at least one component, each once.
+pub fn prescribed_sides<const D: usize>(
+    kind: FileKind,
+    origin: &str,
+    key: &str,
+    parts: &[(String, Vec<String>)],
+    sides_file: &BTreeMap<String, String>,
+    sides: &mut [[BoundaryPart; 2]; D],
+) -> Result<Vec<PrescribedSide<D>>, InputError> {
+    let mut result: Vec<PrescribedSide<D>> = Vec::new();
+    for (i, (part, components)) in parts.iter().enumerate() {
+        let key = format!("{key}[{i}]");
+        let Some((axis, end)) = side_index::<D>(part) else {
+            return Err(kind.error(
+                origin,
+                &format!("{key}.part"),
+                format!("unknown side `{part}` (use x_min, x_max, y_min, y_max[, z_min, z_max])"),
+            ));
+        };
+        match sides_file.get(part).map(String::as_str) {
+            None | Some("clamped") => sides[axis][end] = BoundaryPart::Dirichlet,
+            Some("contact") => {
+                return Err(kind.error(
+                    origin,
+                    &format!("{key}.part"),
+                    format!("side `{part}` is the contact boundary Γ3: a prescribed displacement may not overlap Γ3"),
+                ))
+            }
+            Some(other) => {
+                return Err(kind.error(
+                    origin,
+                    &format!("{key}.part"),
+                    format!("side `{part}` is `{other}`: a prescribed displacement acts on a `clamped` (Γ1) or unlisted side"),
+                ))
+            }
+        }
+        if result.iter().any(|s| (s.axis, s.end) == (axis, end)) {
+            return Err(kind.error(
+                origin,
+                &format!("{key}.part"),
+                format!("side `{part}` is listed twice"),
+            ));
+        }
+        let mut mask = [false; D];
+        for (j, name) in components.iter().enumerate() {
+            match component_index::<D>(name) {
+                Some(c) if !mask[c] => mask[c] = true,
+                _ => {
+                    return Err(kind.error(
+                        origin,
+                        &format!("{key}.components[{j}]"),
+                        format!("`{name}` is not a component (x, y[, z]) or is listed twice"),
+                    ))
+                }
+            }
+        }
+        if !mask.contains(&true) {
+            return Err(kind.error(
+                origin,
+                &format!("{key}.components"),
+                "list at least one prescribed component",
+            ));
+        }
+        result.push(PrescribedSide {
+            axis,
+            end,
+            components: mask,
+        });
+    }
+    Ok(result)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

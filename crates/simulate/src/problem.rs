@@ -17,9 +17,18 @@
 //! [loads]                  # all optional (zero, resp. β0 = 1)
 //! body_force = ["0", "0"]                      # f0 in x, y, z, t
 //! traction = ["0", "-p*max(0, ny)"]            # f2 on Γ2 in x, y, z, t, nx, ny, nz
-//! gap = "0"                                    # g in x, y, z
-//! initial_displacement = ["0", "0"]            # u0 in x, y, z
+//! traction_curve = [[0, 0], [1, 1], [4, 1]]    # load curve [[t, factor], …]: f2 × factor(t),
+//!                                              # piecewise linear, constant outside its times
+//! gap = "0"                                    # g in x, y, z, t; may be negative (an obstacle
+//!                                              # pushed into the body)
+//! initial_displacement = ["0", "0"]            # u0 in x, y, z (= u_D(x, 0) on prescribed parts)
 //! initial_damage = "1"                         # β0 in x, y, z
+//! [[displacement]]         # prescribed displacement u_i = u_D,i(x, t) on a part of Γ1 (any number)
+//! part = "y_max"           # a box side, or a Gmsh group (of `clamped`, or listed nowhere)
+//! y = "-0.01*t"            # x, y, z: components in x, y, z, t; a component not given is free
+//! [[displacement]]         # a roller (symmetry plane): the normal component fixed, the
+//! part = "x_min"           # tangential ones free with zero traction
+//! x = "0"
 //! [output]
 //! every = 1                # save every N-th step (and the last one)
 //! dir = "results/NAME"     # default results/<name>, name = file stem unless `name` is given
@@ -44,18 +53,23 @@
 //! error. Raising an iteration limit and `--resume` is the way out of a step that did not
 //! converge.
 //!
-//! Box sides not listed are traction sides (Γ2). The traction may use the outward normal
+//! Box sides not listed are traction sides (Γ2), except the sides of a `[[displacement]]`,
+//! which are Γ1. A clamped side or group of no `[[displacement]]` keeps u = 0 (2.5). A part
+//! that is `contact` overlaps Γ3 and is refused, as is a `traction` part. The 2D problem is
+//! plane strain. The traction may use the outward normal
 //! (nx, ny, nz) to act on part of Γ2 only, e.g. `max(0, ny)` selects the top of a box.
 //! Every error names the file, the key and the problem ([`InputError::File`] of kind [`FileKind::Problem`]).
 
 use contact_damage::gmsh::{read_msh, GroupRef, PhysicalMap};
 use contact_damage::mesh::{BoundaryPart, Mesh};
-use contact_damage::scheme::{Data, Model, Problem, SchemeSettings};
+use contact_damage::scheme::{
+    Data, Model, PointScalarField, PrescribedDisplacement, Problem, SchemeSettings,
+};
 use contact_input::expr::Expr;
 use contact_input::file::{parse_expr, parse_toml};
 use contact_input::laws::LawsFile;
 use contact_input::scheme::SchemeFile;
-use contact_input::sides::parse_sides;
+use contact_input::sides::{component_index, parse_sides, prescribed_sides};
 use contact_input::{FileKind, InputError};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
@@ -107,6 +121,26 @@ pub struct ProblemFile {
     /// Variants of the scheme (`contact = "explicit"` or `"implicit"`).
     #[serde(default)]
     pub scheme: SchemeFile,
+    /// `[[displacement]]`: parts of Γ1 with prescribed components.
+    #[serde(default)]
+    pub displacement: Vec<DisplacementFile>,
+}
+
+/// One `[[displacement]]`: a box side or Gmsh group with prescribed components u_D,i(x, t).
+#[derive(Debug, Clone, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct DisplacementFile {
+    /// A box side (`x_min`, …) or a Gmsh physical group name.
+    pub part: String,
+    /// u_D,x in x, y, z, t; absent: free.
+    #[serde(default)]
+    pub x: Option<String>,
+    /// u_D,y.
+    #[serde(default)]
+    pub y: Option<String>,
+    /// u_D,z (3D).
+    #[serde(default)]
+    pub z: Option<String>,
 }
 
 /// `[mesh]`: exactly one of `box` and `gmsh`.
@@ -173,7 +207,10 @@ pub struct LoadsFile {
     /// f2 components on Γ2 in x, y, z, t, nx, ny, nz.
     #[serde(default)]
     pub traction: Option<Vec<String>>,
-    /// g ≥ 0 on Γ3 in x, y, z.
+    /// Piecewise-linear load curve [[t, factor], …] multiplying f2.
+    #[serde(default)]
+    pub traction_curve: Option<Vec<Vec<f64>>>,
+    /// g on Γ3 in x, y, z, t (may be negative).
     #[serde(default)]
     pub gap: Option<String>,
     /// u0 components in x, y, z.
@@ -445,8 +482,9 @@ impl<const D: usize> ProblemSetup<D> {
     }
 
     /// Validates the file and builds the problem; `path` names the file in errors and locates
-    /// the Gmsh mesh. Loads are checked for finite values at the mesh vertices (f0) and at the
-    /// vertices of Γ2 (f2) at t = 0, T/2, T.
+    /// the Gmsh mesh. Loads are checked for finite values at the mesh vertices (f0), at the
+    /// vertices of Γ2 (f2), of Γ3 (g) and of each `[[displacement]]` part (u_D) at
+    /// t = 0, T/2, T (the solver checks g and u_D again wherever and whenever it evaluates them).
     pub fn new(file: ProblemFile, path: &Path) -> Result<Self, InputError> {
         let origin = path.display().to_string();
         let origin = origin.as_str();
@@ -509,7 +547,7 @@ impl<const D: usize> ProblemSetup<D> {
                 format!("`{name}` cannot name a folder"),
             ));
         }
-        let mesh = Self::mesh(&file, path, origin)?;
+        let (mesh, part_facets) = Self::mesh(&file, path, origin)?;
         // the damage pictures of a 3D run are drawn on Γ3: refuse before the first step
         if D == 3 && !(0..mesh.num_facets()).any(|f| mesh.facet_part(f) == BoundaryPart::Contact) {
             let key = if file.mesh.gmsh.is_some() {
@@ -553,6 +591,13 @@ impl<const D: usize> ProblemSetup<D> {
                 canonical(serde_json::to_string(&file.scheme)),
             );
         }
+        if !file.displacement.is_empty() {
+            // a resumed run keeps the same prescribed displacements
+            fingerprint.insert(
+                "displacement".to_string(),
+                canonical(serde_json::to_string(&file.displacement)),
+            );
+        }
         let constants = &file.constants;
         let laws = file.laws.build::<D>(
             FileKind::Problem,
@@ -585,9 +630,14 @@ impl<const D: usize> ProblemSetup<D> {
             origin,
             "loads.gap",
             loads.gap.as_deref().unwrap_or("0"),
-            &STATIC_VARIABLES,
+            &FIELD_VARIABLES,
             constants,
         )?;
+        let curve = loads
+            .traction_curve
+            .as_ref()
+            .map(|points| LoadCurve::new(origin, "loads.traction_curve", points))
+            .transpose()?;
         let initial_damage = parse_expr(
             FileKind::Problem,
             origin,
@@ -613,6 +663,23 @@ impl<const D: usize> ProblemSetup<D> {
                 }
             }
         }
+        for f in (0..mesh.num_facets()).filter(|&f| mesh.facet_part(f) == BoundaryPart::Contact) {
+            for &vertex in mesh.facet(f) {
+                let x = mesh.vertex(vertex);
+                for &t in &times {
+                    let value = gap.eval_f64(&point_values(&x, &[t]));
+                    if !value.is_finite() {
+                        return Err(problem_error(
+                            origin,
+                            "loads.gap",
+                            format!("g = {value} is not finite at x = {x:?}, t = {t}"),
+                        ));
+                    }
+                }
+            }
+        }
+        let dirichlet =
+            prescribed_displacements::<D>(&file, origin, constants, &mesh, part_facets, &times)?;
         if let Some(traction) = &traction {
             for f in (0..mesh.num_facets()).filter(|&f| mesh.facet_part(f) == BoundaryPart::Neumann)
             {
@@ -643,7 +710,8 @@ impl<const D: usize> ProblemSetup<D> {
             Arc::new(move |x: &[f64; D], t: f64, normal: &[f64; D]| {
                 let mut extra = [t, 0.0, 0.0, 0.0];
                 extra[1..1 + D].copy_from_slice(normal);
-                eval_vector(&traction, &point_values(x, &extra))
+                let factor = curve.as_ref().map_or(1.0, |curve| curve.factor(t));
+                eval_vector(&traction, &point_values(x, &extra)).map(|f| f * factor)
             }) as contact_damage::scheme::BoundaryVectorField<D>
         });
         let problem = Problem {
@@ -662,7 +730,8 @@ impl<const D: usize> ProblemSetup<D> {
                 contact_traction: None,
                 damage_supply: None,
                 damage_flux: None,
-                gap: Arc::new(move |x| gap.eval_f64(&point_values(x, &[]))),
+                gap: Arc::new(move |x, t| gap.eval_f64(&point_values(x, &[t]))),
+                dirichlet,
                 initial_displacement: Arc::new(move |x| {
                     eval_vector(&initial_displacement, &point_values(x, &[]))
                 }),
@@ -688,7 +757,12 @@ impl<const D: usize> ProblemSetup<D> {
         })
     }
 
-    fn mesh(file: &ProblemFile, path: &Path, origin: &str) -> Result<Mesh<D>, InputError> {
+    /// The mesh and the facets of each `[[displacement]]` part.
+    fn mesh(
+        file: &ProblemFile,
+        path: &Path,
+        origin: &str,
+    ) -> Result<(Mesh<D>, Vec<Vec<usize>>), InputError> {
         match (&file.mesh.box_mesh, &file.mesh.gmsh) {
             (Some(box_file), None) => {
                 let coordinates = |key: &str, values: &[f64]| -> Result<[f64; D], InputError> {
@@ -711,23 +785,115 @@ impl<const D: usize> ProblemSetup<D> {
                     ));
                 }
                 let cells = std::array::from_fn(|i| box_file.cells[i]);
-                let sides =
+                let mut sides =
                     parse_sides::<D>(FileKind::Problem, origin, "mesh.box.sides", &box_file.sides)?;
-                Mesh::box_mesh(lower, upper, cells, sides)
-                    .map_err(|e| problem_error(origin, "mesh.box", e.to_string()))
+                let parts: Vec<(String, Vec<String>)> = file
+                    .displacement
+                    .iter()
+                    .map(|d| (d.part.clone(), d.component_names()))
+                    .collect();
+                let prescribed = prescribed_sides::<D>(
+                    FileKind::Problem,
+                    origin,
+                    "displacement",
+                    &parts,
+                    &box_file.sides,
+                    &mut sides,
+                )?;
+                let mesh = Mesh::box_mesh(lower, upper, cells, sides)
+                    .map_err(|e| problem_error(origin, "mesh.box", e.to_string()))?;
+                let facets = prescribed
+                    .iter()
+                    .map(|side| {
+                        let coordinate = [lower, upper][side.end][side.axis];
+                        mesh.boundary_facets_where(|x| x[side.axis] == coordinate)
+                    })
+                    .collect();
+                Ok((mesh, facets))
             }
             (None, Some(gmsh)) => {
                 let msh = path
                     .parent()
                     .unwrap_or_else(|| Path::new(""))
                     .join(&gmsh.file);
-                let map = PhysicalMap {
+                let mut map = PhysicalMap {
                     dirichlet: groups(&gmsh.clamped),
                     neumann: groups(&gmsh.traction),
                     contact: groups(&gmsh.contact),
                 };
-                read_msh::<D>(&msh, &map)
-                    .map_err(|e| problem_error(origin, "mesh.gmsh", e.to_string()))
+                for (i, part) in file.displacement.iter().enumerate() {
+                    let group = GroupRef::Name(part.part.clone());
+                    let key = format!("displacement[{i}].part");
+                    if map.contact.contains(&group) {
+                        return Err(problem_error(
+                            origin,
+                            &key,
+                            format!("group \"{}\" is the contact boundary Γ3 (mesh.gmsh.contact): a prescribed displacement may not overlap Γ3", part.part),
+                        ));
+                    }
+                    if map.neumann.contains(&group) {
+                        return Err(problem_error(
+                            origin,
+                            &key,
+                            format!("group \"{}\" is a traction group (mesh.gmsh.traction): a prescribed displacement acts on `clamped` groups or groups listed nowhere", part.part),
+                        ));
+                    }
+                    if !map.dirichlet.contains(&group) {
+                        map.dirichlet.push(group);
+                    }
+                }
+                let mesh = read_msh::<D>(&msh, &map).map_err(|e| {
+                    let message = e.to_string();
+                    // a group named only by a `[[displacement]]` that the file lacks
+                    let key =
+                        file.displacement
+                            .iter()
+                            .position(|part| {
+                                !gmsh.clamped.iter().any(
+                                    |g| matches!(g, GroupFile::Name(name) if *name == part.part),
+                                ) && message.contains(&format!("\"{}\"", part.part))
+                            })
+                            .map_or("mesh.gmsh".to_string(), |i| {
+                                format!("displacement[{i}].part")
+                            });
+                    problem_error(origin, &key, message)
+                })?;
+                // the facets of a part: the Γ1 facets of the same file read with that group
+                // alone as Γ1 (the reader keeps the order of the facets)
+                let mut facets = Vec::new();
+                for (i, part) in file.displacement.iter().enumerate() {
+                    let group = GroupRef::Name(part.part.clone());
+                    let alone = PhysicalMap {
+                        dirichlet: vec![group.clone()],
+                        neumann: map
+                            .dirichlet
+                            .iter()
+                            .chain(&map.neumann)
+                            .chain(&map.contact)
+                            .filter(|g| **g != group)
+                            .cloned()
+                            .collect(),
+                        contact: Vec::new(),
+                    };
+                    let key = format!("displacement[{i}].part");
+                    let single = read_msh::<D>(&msh, &alone)
+                        .map_err(|e| problem_error(origin, &key, e.to_string()))?;
+                    if single.num_facets() != mesh.num_facets()
+                        || (0..mesh.num_facets()).any(|f| single.facet(f) != mesh.facet(f))
+                    {
+                        return Err(problem_error(
+                            origin,
+                            &key,
+                            format!("the facets of group \"{}\" could not be matched", part.part),
+                        ));
+                    }
+                    facets.push(
+                        (0..single.num_facets())
+                            .filter(|&f| single.facet_part(f) == BoundaryPart::Dirichlet)
+                            .collect(),
+                    );
+                }
+                Ok((mesh, facets))
             }
             _ => Err(problem_error(
                 origin,
@@ -735,5 +901,149 @@ impl<const D: usize> ProblemSetup<D> {
                 "give exactly one of `box = {…}` and `gmsh = {…}`",
             )),
         }
+    }
+}
+
+impl DisplacementFile {
+    /// The components given (`"x"`, `"y"`, `"z"`).
+    fn component_names(&self) -> Vec<String> {
+        [("x", &self.x), ("y", &self.y), ("z", &self.z)]
+            .iter()
+            .filter(|(_, expr)| expr.is_some())
+            .map(|(name, _)| name.to_string())
+            .collect()
+    }
+}
+
+/// The `[[displacement]]` parts as the solver's prescribed displacements on their facets: each
+/// component parsed in x, y, z, t and checked finite at the part's vertices at `times`.
+fn prescribed_displacements<const D: usize>(
+    file: &ProblemFile,
+    origin: &str,
+    constants: &BTreeMap<String, f64>,
+    mesh: &Mesh<D>,
+    part_facets: Vec<Vec<usize>>,
+    times: &[f64],
+) -> Result<Vec<PrescribedDisplacement<D>>, InputError> {
+    let mut parts = Vec::new();
+    for (i, (part, facets)) in file.displacement.iter().zip(part_facets).enumerate() {
+        let mut components: [Option<PointScalarField<D>>; D] = std::array::from_fn(|_| None);
+        let given = [("x", &part.x), ("y", &part.y), ("z", &part.z)];
+        if given.iter().all(|(_, e)| e.is_none()) {
+            return Err(problem_error(
+                origin,
+                &format!("displacement[{i}]"),
+                "give at least one component (x, y, z) of the prescribed displacement",
+            ));
+        }
+        for (name, source) in given {
+            let Some(source) = source else { continue };
+            let key = format!("displacement[{i}].{name}");
+            let Some(c) = component_index::<D>(name) else {
+                return Err(problem_error(
+                    origin,
+                    &key,
+                    format!("a {D}D problem has no component `{name}`"),
+                ));
+            };
+            let expr = parse_expr(
+                FileKind::Problem,
+                origin,
+                &key,
+                source,
+                &FIELD_VARIABLES,
+                constants,
+            )?;
+            for &f in &facets {
+                for &vertex in mesh.facet(f) {
+                    let x = mesh.vertex(vertex);
+                    for &t in times {
+                        let value = expr.eval_f64(&point_values(&x, &[t]));
+                        if !value.is_finite() {
+                            return Err(problem_error(
+                                origin,
+                                &key,
+                                format!("u_D = {value} is not finite at x = {x:?}, t = {t}"),
+                            ));
+                        }
+                    }
+                }
+            }
+            components[c] =
+                Some(
+                    Arc::new(move |x: &[f64; D], t: f64| expr.eval_f64(&point_values(x, &[t])))
+                        as PointScalarField<D>,
+                );
+        }
+        parts.push(PrescribedDisplacement {
+            name: part.part.clone(),
+            facets,
+            components,
+            traction: None,
+        });
+    }
+    Ok(parts)
+}
+
+/// A piecewise-linear load curve [[t, factor], …]: linear between its points, constant
+/// outside them.
+#[derive(Debug, Clone)]
+pub struct LoadCurve {
+    points: Vec<(f64, f64)>,
+}
+
+impl LoadCurve {
+    /// Checks the points (at least one; pairs of finite numbers; times strictly increasing);
+    /// errors name `origin` and `key`.
+    pub fn new(origin: &str, key: &str, points: &[Vec<f64>]) -> Result<Self, InputError> {
+        if points.is_empty() {
+            return Err(problem_error(
+                origin,
+                key,
+                "give at least one [t, factor] point",
+            ));
+        }
+        let mut parsed: Vec<(f64, f64)> = Vec::with_capacity(points.len());
+        for (i, point) in points.iter().enumerate() {
+            let &[t, factor] = point.as_slice() else {
+                return Err(problem_error(
+                    origin,
+                    &format!("{key}[{i}]"),
+                    format!("a point is [t, factor], got {point:?}"),
+                ));
+            };
+            if !(t.is_finite() && factor.is_finite()) {
+                return Err(problem_error(
+                    origin,
+                    &format!("{key}[{i}]"),
+                    format!("t and factor must be finite, got {point:?}"),
+                ));
+            }
+            if let Some(&(previous, _)) = parsed.last() {
+                if t <= previous {
+                    return Err(problem_error(
+                        origin,
+                        &format!("{key}[{i}]"),
+                        format!("times must increase strictly, got {t} after {previous}"),
+                    ));
+                }
+            }
+            parsed.push((t, factor));
+        }
+        Ok(Self { points: parsed })
+    }
+
+    /// The factor at time t.
+    pub fn factor(&self, t: f64) -> f64 {
+        let points = &self.points;
+        let after = points.partition_point(|&(time, _)| time <= t);
+        if after == 0 {
+            return points[0].1;
+        }
+        if after == points.len() {
+            return points[after - 1].1;
+        }
+        let ((t0, f0), (t1, f1)) = (points[after - 1], points[after]);
+        f0 + (f1 - f0) * (t - t0) / (t1 - t0)
     }
 }

@@ -489,22 +489,24 @@ pub fn run<const D: usize>(
             &friction_bound,
             &velocity.multipliers,
         );
-        // the penetration whose p_ν the step used: at u_{n−1} (5.1), or at u_n (implicit)
-        let pressed = if setup.problem.settings.contact == ContactTreatment::Implicit {
-            state.displacement.clone()
+        // the penetration whose p_ν the step used: u_{n−1} − g(t_{n−1}) (5.1), or
+        // u_n − g(t_n) (implicit)
+        let (pressed, gap_time) = if setup.problem.settings.contact == ContactTreatment::Implicit {
+            (state.displacement.clone(), state.time)
         } else {
             let k = simulation.time_step();
-            state
+            let previous: Vec<f64> = state
                 .displacement
                 .iter()
                 .zip(&state.velocity)
                 .map(|(u, v)| u - k * v)
-                .collect()
+                .collect();
+            (previous, state.time - k)
         };
         let gap = &setup.problem.data.gap;
         let zone = contact_zone(
             &space,
-            &boundary_penetration(&space, &contact, &pressed, |x| gap(x)),
+            &boundary_penetration(&space, &contact, &pressed, |x| gap(x, gap_time)),
             contact_line.axis,
         );
         if let Some((low, high)) = force_cycle.push(on_contact.normal_force) {

@@ -542,7 +542,7 @@ fn bad_problem_files_name_the_key() {
             "every = 10\npictures = [2.5, 6.0]",
             "key `output.pictures`: every time must lie in (0, final_time = 5], got 6",
         ),
-        ("gap = \"0.02*x\"", "gap = \"0.02*t\"", "key `loads.gap`"),
+        ("gap = \"0.02*x\"", "gap = \"0.02*w\"", "key `loads.gap`"),
         (
             "gap = \"0.02*x\"",
             "gap = \"0.02*x\"\nbody_force = [\"1\"]",

@@ -11,8 +11,11 @@ use crate::manufactured::data::{
 use crate::manufactured::{value, ExactSolution, Laws};
 use crate::VerifyError;
 use contact_damage::mesh::{BoundaryPart, Mesh};
-use contact_damage::scheme::{Data, Problem, SchemeSettings};
+use contact_damage::scheme::{
+    Data, PointScalarField, PrescribedDisplacement, Problem, SchemeSettings,
+};
 use contact_input::file::{parse_expr, parse_toml, positive};
+use contact_input::sides::{prescribed_sides, PrescribedSide};
 use contact_input::FileKind;
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -58,6 +61,20 @@ pub struct CaseFile {
     /// `[scheme]`: variants of the scheme (default: the paper's (5.1)–(5.5)).
     #[serde(default)]
     pub scheme: SchemeFile,
+    /// `[[displacement]]`: sides of Γ1 whose listed components are prescribed, u_D = u (the
+    /// exact field); the other components of the side are free with the exact traction σν.
+    #[serde(default)]
+    pub displacement: Vec<CaseDisplacementFile>,
+}
+
+/// One `[[displacement]]` of a case file: a box side of Γ1 with prescribed components.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CaseDisplacementFile {
+    /// The side (`x_min`, …); it must be `clamped` or unlisted in `domain.sides`.
+    pub part: String,
+    /// The prescribed components (`"x"`, `"y"`, `"z"`); the others are free.
+    pub components: Vec<String>,
 }
 
 /// `[domain]`: a box with a boundary part for each side.
@@ -141,6 +158,8 @@ pub struct Case<const D: usize> {
     pub exact: ExactSolution<D>,
     /// The exact fields and their derivatives compiled once ([`ExactPrograms`]).
     pub programs: Arc<ExactPrograms<D>>,
+    /// Sides of Γ1 with prescribed components u_D = u.
+    pub prescribed: Vec<PrescribedSide<D>>,
 }
 
 /// Checks the study definitions before anything runs: keys `order1`/`order2`; level studies with
@@ -260,7 +279,21 @@ impl<const D: usize> Case<D> {
                 format!("need {D} coordinates each"),
             ));
         }
-        let sides = parse_sides::<D>(FileKind::Case, origin, "domain.sides", &file.domain.sides)?;
+        let mut sides =
+            parse_sides::<D>(FileKind::Case, origin, "domain.sides", &file.domain.sides)?;
+        let parts: Vec<(String, Vec<String>)> = file
+            .displacement
+            .iter()
+            .map(|d| (d.part.clone(), d.components.clone()))
+            .collect();
+        let prescribed = prescribed_sides::<D>(
+            FileKind::Case,
+            origin,
+            "displacement",
+            &parts,
+            &file.domain.sides,
+            &mut sides,
+        )?;
         let constants = &file.constants;
         if !file.scheme.damage {
             return Err(case_error(
@@ -335,16 +368,10 @@ impl<const D: usize> Case<D> {
                 constants,
             )?,
         };
-        if exact.gap.used_variables().iter().any(|v| v == "t") {
-            return Err(case_error(
-                origin,
-                "exact.gap",
-                "the gap g(x) must not depend on t",
-            ));
-        }
         let case = Self {
             origin: origin.to_string(),
             sides,
+            prescribed,
             laws,
             programs: Arc::new(ExactPrograms::new(&exact)),
             exact,
@@ -387,7 +414,16 @@ impl<const D: usize> Case<D> {
             for axis in 0..D {
                 for (side, coordinate) in [lower[axis], upper[axis]].into_iter().enumerate() {
                     if (x[axis] - coordinate).abs() < 1e-14 {
-                        parts.push(self.sides[axis][side]);
+                        // a prescribed side takes u_D = u: nothing to check there
+                        let free = self
+                            .prescribed
+                            .iter()
+                            .any(|p| (p.axis, p.end) == (axis, side));
+                        parts.push(if free {
+                            BoundaryPart::Neumann
+                        } else {
+                            self.sides[axis][side]
+                        });
                         let mut n = [0.0; D];
                         n[axis] = if side == 0 { -1.0 } else { 1.0 };
                         normals.push(n);
@@ -435,11 +471,11 @@ impl<const D: usize> Case<D> {
                         }
                         BoundaryPart::Contact => {
                             let gap = value(&self.exact.gap, &x, t);
-                            if gap < 0.0 || !gap.is_finite() {
+                            if !gap.is_finite() {
                                 return Err(case_error(
                                     origin,
                                     "exact.gap",
-                                    format!("g = {gap} < 0 on Γ3 {}", at()),
+                                    format!("g = {gap} is not finite on Γ3 {}", at()),
                                 ));
                             }
                             let xi: Vec<f64> = self
@@ -490,8 +526,40 @@ impl<const D: usize> Case<D> {
         let exact = Arc::new(self.exact.clone());
         let data = ManufacturedData::new(self.programs.clone(), laws.clone());
         let (eu, eb, eg) = (exact.clone(), exact.clone(), exact.clone());
+        let mesh = self.mesh(cells)?;
+        let dirichlet = self
+            .prescribed
+            .iter()
+            .map(|side| {
+                let coordinate = if side.end == 0 {
+                    self.lower()[side.axis]
+                } else {
+                    self.upper()[side.axis]
+                };
+                let components = std::array::from_fn(|i| {
+                    side.components[i].then(|| {
+                        let e = exact.clone();
+                        Arc::new(move |x: &[f64; D], t: f64| value(&e.displacement[i], x, t))
+                            as PointScalarField<D>
+                    })
+                });
+                let (et, lt) = (exact.clone(), laws.clone());
+                PrescribedDisplacement {
+                    name: format!(
+                        "{}_{}",
+                        ["x", "y", "z"][side.axis],
+                        ["min", "max"][side.end]
+                    ),
+                    facets: mesh.boundary_facets_where(|x| x[side.axis] == coordinate),
+                    components,
+                    traction: Some(Arc::new(move |x: &[f64; D], t: f64, n: &[f64; D]| {
+                        et.traction(&lt, x, t, n)
+                    })),
+                }
+            })
+            .collect();
         Ok(Problem {
-            mesh: Arc::new(self.mesh(cells)?),
+            mesh: Arc::new(mesh),
             degree,
             model: laws.clone(),
             data: Data {
@@ -500,7 +568,8 @@ impl<const D: usize> Case<D> {
                 contact_traction: Some(Arc::new(ContactTraction(data.clone()))),
                 damage_supply: Some(Arc::new(DamageSupply(data.clone()))),
                 damage_flux: Some(Arc::new(DamageFlux(data))),
-                gap: Arc::new(move |x| value(&eg.gap, x, 0.0)),
+                gap: Arc::new(move |x, t| value(&eg.gap, x, t)),
+                dirichlet,
                 initial_displacement: Arc::new(move |x| {
                     std::array::from_fn(|i| value(&eu.displacement[i], x, 0.0))
                 }),

@@ -10,7 +10,7 @@ pub use contact_input::threads::{max_threads, set_threads};
 use std::path::PathBuf;
 
 /// Built-in cases: (name, TOML text). The files live in `verification/`.
-pub const BUILT_IN_CASES: [(&str, &str); 12] = [
+pub const BUILT_IN_CASES: [(&str, &str); 13] = [
     ("slip2d", include_str!("../../../verification/slip2d.toml")),
     (
         "zones2d",
@@ -35,6 +35,10 @@ pub const BUILT_IN_CASES: [(&str, &str); 12] = [
         "implicit2d",
         include_str!("../../../verification/implicit2d.toml"),
     ),
+    (
+        "loads2d",
+        include_str!("../../../verification/loads2d.toml"),
+    ),
     ("mild3d", include_str!("../../../verification/mild3d.toml")),
     (
         "strong3d",
@@ -53,7 +57,7 @@ pub struct Cli {
     /// Space dimension of the default case (2 or 3); ignored with --case.
     #[arg(long, default_value_t = 2)]
     pub dim: usize,
-    /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d, mild2d, strong2d, wear2d, carreau2d, implicit2d, mild3d, strong3d, wear3d).
+    /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d, mild2d, strong2d, wear2d, carreau2d, implicit2d, loads2d, mild3d, strong3d, wear3d).
     #[arg(long)]
     pub case: Option<String>,
     /// Use only the first (coarsest) N levels of every study.

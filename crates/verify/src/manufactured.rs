@@ -90,7 +90,7 @@ pub struct ExactSolution<const D: usize> {
     pub stick_traction: [Expr; D],
     /// η(x, t) ∈ ∂ψ_K(β): ≥ 0 where β = 1, ≤ 0 where β = 0, 0 in between.
     pub damage_multiplier: Expr,
-    /// g(x) ≥ 0.
+    /// g(x, t), may be negative (an obstacle pushed into the body).
     pub gap: Expr,
 }
 
@@ -164,14 +164,15 @@ impl<const D: usize> ExactSolution<D> {
         traction_at(laws, &self.point_state(x, t), normal)
     }
 
-    /// Penetration r = u_ν − g at a point of Γ3.
+    /// Penetration r = u_ν − g(x, t) at a point of Γ3 (`state` at time t).
     pub fn penetration(
         &self,
         state: &PointState<D>,
         x: &[f64; D],
+        t: f64,
         normal: &SVector<f64, D>,
     ) -> f64 {
-        state.displacement.dot(normal) - value(&self.gap, x, 0.0)
+        state.displacement.dot(normal) - value(&self.gap, x, t)
     }
 
     /// f3 = σν + p_ν(u_ν − g) ν + p_τ(u_ν − g) ξ̂ on Γ3 (SPEC §4) (tree evaluation).
@@ -184,7 +185,7 @@ impl<const D: usize> ExactSolution<D> {
     ) -> [f64; D] {
         let state = self.point_state(x, t);
         let xi = SVector::<f64, D>::from_fn(|i, _| value(&self.stick_traction[i], x, t));
-        contact_traction_at(laws, &state, &xi, value(&self.gap, x, 0.0), normal)
+        contact_traction_at(laws, &state, &xi, value(&self.gap, x, t), normal)
     }
 
     /// q = β̇ − κΔβ + η − φ(ε(u), β) (SPEC §4) (tree evaluation).

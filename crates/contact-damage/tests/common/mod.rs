@@ -39,7 +39,8 @@ pub fn quiet_data<const D: usize>() -> Data<D> {
         contact_traction: None,
         damage_supply: None,
         damage_flux: None,
-        gap: Arc::new(|_| 0.0),
+        gap: Arc::new(|_, _| 0.0),
+        dirichlet: Vec::new(),
         initial_displacement: Arc::new(|_| [0.0; D]),
         initial_damage: Arc::new(|_| 1.0),
     }

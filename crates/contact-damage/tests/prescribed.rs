@@ -1,0 +1,378 @@
+//! Prescribed displacement on parts of Γ1, rollers and a moving, negative gap (issue 17):
+//! - the velocity step (5.1) with prescribed velocities on constrained unknowns satisfies its
+//!   KKT conditions on the free unknowns, recomputed here with this file's own quadrature loop
+//!   for N(v) (linear and nonlinear 𝒜), takes v_c = p_c exactly, and its reactions equal the
+//!   assembled residual N(v) − F on the constrained unknowns;
+//! - in the scheme, u_n = u_D(t_n) exactly on the constrained unknowns, a roller leaves the
+//!   tangential component free, the explicit scheme takes the gap at t_{n−1} (the implicit
+//!   normal compliance at t_n), a negative gap presses the body;
+//! - errors: a part on Γ3, a non-finite gap or u_D, each naming what is wrong.
+
+mod common;
+
+use common::{regime_contact_data, Lcg, REGIMES};
+
+use contact_damage::assembly::{field_strain, physical_gradients};
+use contact_damage::contact::ContactNodes;
+use contact_damage::laws::{LinearViscosity, SaturatingViscosity, Viscosity};
+use contact_damage::mesh::{BoundaryPart, BoundaryPart::*, Mesh};
+use contact_damage::quadrature::QuadratureRule;
+use contact_damage::scheme::{
+    ContactTreatment, Data, PointScalarField, PrescribedDisplacement, Simulation,
+};
+use contact_damage::space::{LagrangeSpace, Tabulation};
+use contact_damage::velocity::{VelocityData, VelocityOperator, VelocitySettings};
+use nalgebra::SVector;
+use proptest::prelude::*;
+use std::sync::Arc;
+
+/// N(v) (Cartesian, node-major) by this test's own quadrature loop (degree 2l).
+fn internal_force<const D: usize>(
+    space: &LagrangeSpace<D>,
+    law: &dyn Viscosity<D>,
+    velocity: &[f64],
+) -> Vec<f64> {
+    let tab = Tabulation::cell_rule(
+        space.element(),
+        &QuadratureRule::<D>::simplex(2 * space.degree()),
+    );
+    let n = tab.nodes;
+    let mut force = vec![0.0; velocity.len()];
+    let mut grads = vec![SVector::<f64, D>::zeros(); n];
+    for cell in 0..space.mesh().num_cells() {
+        let geometry = space.geometry(cell);
+        let nodes = space.cell_nodes(cell);
+        for q in 0..tab.weights.len() {
+            physical_gradients(geometry, &tab, q, &mut grads);
+            let rate = field_strain(nodes, &grads, velocity);
+            let stress = law.stress(&rate) * (tab.weights[q] * geometry.det);
+            for (a, &node) in nodes.iter().enumerate() {
+                let traction = stress * grads[a];
+                for i in 0..D {
+                    force[node * D + i] += traction[i];
+                }
+            }
+        }
+    }
+    force
+}
+
+/// Unit square: Γ1 = {x = 0} ∪ {x = 1}, Γ3 = {y = 0}, Γ2 = {y = 1}.
+fn square_two_grips(cells: usize) -> Mesh<2> {
+    Mesh::box_mesh(
+        [0.0, 0.0],
+        [1.0, 1.0],
+        [cells, cells],
+        [[Dirichlet, Dirichlet], [Contact, Neumann]],
+    )
+    .unwrap()
+}
+
+/// One velocity step with random loads, contact data and prescribed velocities: x = 0 fully
+/// constrained, x = 1 with a random component mask. Returns (KKT residual recomputed here,
+/// largest |v_c − p_c|, largest relative difference reaction − (N(v) − F) on the constrained
+/// unknowns).
+fn prescribed_step(
+    law: Arc<dyn Viscosity<2>>,
+    degree: usize,
+    regime: usize,
+    seed: u64,
+) -> (f64, f64, f64) {
+    let mut rng = Lcg(seed);
+    let space = Arc::new(LagrangeSpace::new(Arc::new(square_two_grips(4)), degree).unwrap());
+    let contact = Arc::new(ContactNodes::new(&space).unwrap());
+    let n = space.num_nodes() * 2;
+    let mut constrained = vec![false; n];
+    for node in space.boundary_nodes(BoundaryPart::Dirichlet) {
+        let gripped = space.node(node)[0] == 0.0;
+        for i in 0..2 {
+            constrained[node * 2 + i] = gripped || rng.next() < 0.5;
+        }
+    }
+    let mut operator = VelocityOperator::with_constraints(
+        space.clone(),
+        law.clone(),
+        contact.clone(),
+        constrained.clone(),
+    )
+    .unwrap();
+    let load: Vec<f64> = (0..n).map(|_| 0.05 * rng.symmetric()).collect();
+    let prescribed: Vec<f64> = (0..n)
+        .map(|dof| {
+            if constrained[dof] {
+                0.2 * rng.symmetric()
+            } else {
+                f64::NAN // ignored on free unknowns
+            }
+        })
+        .collect();
+    let (pressure, bound) = regime_contact_data(REGIMES[regime], contact.len(), &mut rng);
+    let data = VelocityData {
+        load: &load,
+        normal_pressure: &pressure,
+        friction_bound: &bound,
+        implicit_contact: None,
+        prescribed: Some(&prescribed),
+    };
+    let start: Vec<f64> = (0..n).map(|_| rng.symmetric()).collect();
+    let solution = operator
+        .solve(&data, &start, &VelocitySettings::default())
+        .unwrap();
+    let cartesian_force = internal_force(&space, law.as_ref(), &solution.velocity);
+    // reactions: N(v) − F on the constrained unknowns (Cartesian; no contact node is constrained)
+    let mut reaction_error: f64 = 0.0;
+    let mut prescribed_error: f64 = 0.0;
+    let scale = cartesian_force
+        .iter()
+        .chain(&load)
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    for dof in (0..n).filter(|&dof| constrained[dof]) {
+        let expected = cartesian_force[dof] - load[dof];
+        reaction_error = reaction_error.max((solution.reaction[dof] - expected).abs() / scale);
+        prescribed_error = prescribed_error.max((solution.velocity[dof] - prescribed[dof]).abs());
+    }
+    for dof in (0..n).filter(|&dof| !constrained[dof]) {
+        assert_eq!(solution.reaction[dof], 0.0, "reaction on a free unknown");
+    }
+    // stationarity on the free unknowns in the system frame
+    let force = operator.to_system(&cartesian_force);
+    let v = operator.to_system(&solution.velocity);
+    let mut f = operator.to_system(&load);
+    for (k, &node) in contact.nodes.iter().enumerate() {
+        f[node * 2] -= contact.weights[k] * pressure[k];
+    }
+    let mut residual: Vec<f64> = force.iter().zip(&f).map(|(a, b)| a - b).collect();
+    let mut complementarity: f64 = 0.0;
+    for (k, &node) in contact.nodes.iter().enumerate() {
+        let weight = contact.weights[k] * bound[k];
+        let lambda = solution.multipliers[k];
+        residual[node * 2 + 1] += weight * lambda;
+        complementarity = complementarity.max(lambda.abs() - 1.0);
+        let tangential = v[node * 2 + 1];
+        if weight > 0.0 && tangential != 0.0 {
+            complementarity = complementarity.max((lambda - tangential.signum()).abs());
+        }
+    }
+    let free_scale = (0..n)
+        .filter(|&dof| !constrained[dof])
+        .fold(0.0f64, |m, dof| m.max(f[dof].abs()).max(force[dof].abs()));
+    let stationarity = (0..n)
+        .filter(|&dof| !constrained[dof])
+        .fold(0.0f64, |m, dof| m.max(residual[dof].abs()))
+        / free_scale;
+    (
+        stationarity.max(complementarity),
+        prescribed_error,
+        reaction_error,
+    )
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(16))]
+
+    #[test]
+    fn velocity_step_with_prescribed_velocities_satisfies_kkt_linear(
+        seed in any::<u64>(), regime in 0usize..4, degree in 1usize..=2,
+    ) {
+        let law = Arc::new(LinearViscosity { shear: 1.0, bulk: 0.3 });
+        let (kkt, prescribed, reaction) = prescribed_step(law, degree, regime, seed);
+        prop_assert!(kkt <= 1e-10, "KKT residual {kkt:e}");
+        prop_assert_eq!(prescribed, 0.0);
+        prop_assert!(reaction <= 1e-12, "reaction differs by {reaction:e}");
+    }
+
+    #[test]
+    fn velocity_step_with_prescribed_velocities_satisfies_kkt_nonlinear(
+        seed in any::<u64>(), regime in 0usize..4, degree in 1usize..=2,
+    ) {
+        let law = Arc::new(SaturatingViscosity {
+            linear: LinearViscosity { shear: 1.0, bulk: 0.3 },
+            extra_shear: 5.0,
+            rate_scale: 0.01,
+        });
+        let (kkt, prescribed, reaction) = prescribed_step(law, degree, regime, seed);
+        prop_assert!(kkt <= 1e-10, "KKT residual {kkt:e}");
+        prop_assert_eq!(prescribed, 0.0);
+        prop_assert!(reaction <= 1e-12, "reaction differs by {reaction:e}");
+    }
+}
+
+/// The approach u_y = −0.05 t (1 + x) of the top y = 1 (both components: u_x = 0.02 t x) and a
+/// roller on x = 0 (u_x = 0); Γ3 = {y = 0} against an obstacle with the gap g(x, t).
+fn pressed_square(gap: PointScalarField<2>, contact: ContactTreatment) -> Simulation<2> {
+    let mesh = Mesh::box_mesh(
+        [0.0, 0.0],
+        [1.0, 1.0],
+        [6, 6],
+        [[Dirichlet, Neumann], [Contact, Dirichlet]],
+    )
+    .unwrap();
+    let top = mesh.boundary_facets_where(|x| x[1] == 1.0);
+    let left = mesh.boundary_facets_where(|x| x[0] == 0.0);
+    let mut data: Data<2> = common::quiet_data();
+    data.gap = gap;
+    data.dirichlet = vec![
+        PrescribedDisplacement {
+            name: "top".into(),
+            facets: top,
+            components: [
+                Some(Arc::new(|x: &[f64; 2], t: f64| 0.02 * t * x[0])),
+                Some(Arc::new(|x: &[f64; 2], t: f64| -0.05 * t * (1.0 + x[0]))),
+            ],
+            traction: None,
+        },
+        PrescribedDisplacement {
+            name: "roller".into(),
+            facets: left,
+            components: [Some(Arc::new(|_: &[f64; 2], _: f64| 0.0)), None],
+            traction: None,
+        },
+    ];
+    let mut problem = common::problem(mesh, 1, data, 1.0, 8);
+    problem.settings.contact = contact;
+    Simulation::new(problem).unwrap()
+}
+
+#[test]
+fn scheme_reaches_the_prescribed_displacement_exactly_and_the_roller_slides() {
+    let mut simulation = pressed_square(Arc::new(|_, _| 0.0), ContactTreatment::Explicit);
+    let constrained = simulation.velocity_operator().constrained().to_vec();
+    let space = simulation.space().clone();
+    assert_eq!(simulation.dirichlet_parts(), ["top", "roller"]);
+    let mut roller_moved: f64 = 0.0;
+    let mut pressed = false;
+    simulation
+        .run(|report| {
+            let t = report.state.time;
+            for node in 0..space.num_nodes() {
+                let x = space.node(node);
+                let u = &report.state.displacement[node * 2..node * 2 + 2];
+                if x[1] == 1.0 {
+                    assert!(constrained[node * 2] && constrained[node * 2 + 1]);
+                    assert_eq!(u[0], 0.02 * t * x[0], "u_x = u_D,x(t_n) exactly at {x:?}");
+                    assert_eq!(u[1], -0.05 * t * (1.0 + x[0]), "u_y at {x:?}");
+                } else if x[0] == 0.0 {
+                    assert!(constrained[node * 2] && !constrained[node * 2 + 1]);
+                    assert_eq!(u[0], 0.0, "the roller fixes u_x at {x:?}");
+                    roller_moved = roller_moved.max(u[1].abs());
+                } else {
+                    assert!(!constrained[node * 2] && !constrained[node * 2 + 1]);
+                }
+            }
+            // the roller carries no tangential reaction by construction; the top pushes down
+            assert_eq!(report.reactions.len(), 2);
+            assert_eq!(report.reactions[1][1], 0.0);
+            pressed |=
+                report.reactions[0][1] < 0.0 && report.normal_pressure.iter().any(|&p| p > 0.0);
+            assert!(report.velocity_stats.kkt_residual <= 1e-10);
+            Ok(())
+        })
+        .unwrap();
+    assert!(
+        roller_moved > 1e-3,
+        "the roller's free u_y moved by {roller_moved:e}"
+    );
+    assert!(pressed, "the top pressed the body onto the foundation");
+}
+
+/// p_ν(u_ν − g) per contact node for a state and a time.
+fn pressures(simulation: &Simulation<2>, displacement: &[f64], time: f64) -> Vec<f64> {
+    let contact = simulation.contact();
+    let gap = simulation.gap_at(time).unwrap();
+    let law = contact_damage::laws::NormalComplianceCoulomb {
+        stiffness: 10.0,
+        friction: 0.4,
+        wear: 0.0,
+    };
+    use contact_damage::laws::ContactLaw;
+    (0..contact.len())
+        .map(|k| {
+            let node = contact.nodes[k];
+            let u = SVector::<f64, 2>::from_column_slice(&displacement[node * 2..node * 2 + 2]);
+            law.normal_pressure(u.dot(&contact.normal(k)) - gap[k])
+        })
+        .collect()
+}
+
+#[test]
+fn moving_negative_gap_is_taken_at_the_start_of_the_step_explicit_and_at_its_end_implicit() {
+    // the obstacle rises through y = 0: g = 0.02 − 0.2 t, negative for t > 0.1
+    let gap: PointScalarField<2> = Arc::new(|x: &[f64; 2], t: f64| 0.02 - 0.2 * t + 0.01 * x[0]);
+    for treatment in [ContactTreatment::Explicit, ContactTreatment::Implicit] {
+        let mut simulation = pressed_square(gap.clone(), treatment);
+        let k = simulation.time_step();
+        let mut previous = simulation.state().displacement.clone();
+        let mut negative_gap_contact = false;
+        while simulation.state().step < simulation.steps() {
+            let n = simulation.state().step + 1;
+            let (_, _, used, _) = simulation.step().unwrap();
+            let expected = match treatment {
+                ContactTreatment::Explicit => pressures(&simulation, &previous, (n - 1) as f64 * k),
+                ContactTreatment::Implicit => {
+                    pressures(&simulation, &simulation.state().displacement, n as f64 * k)
+                }
+            };
+            assert_eq!(used, expected, "{treatment:?}: p_ν of step {n}");
+            let gap_now = simulation.gap_at(n as f64 * k).unwrap();
+            negative_gap_contact |= gap_now.iter().zip(&used).any(|(g, p)| *g < 0.0 && *p > 0.0);
+            previous = simulation.state().displacement.clone();
+        }
+        assert!(
+            negative_gap_contact,
+            "{treatment:?}: no contact where g < 0"
+        );
+    }
+}
+
+#[test]
+fn a_part_on_the_contact_boundary_is_refused_naming_it() {
+    let mesh = common::square(4);
+    let bottom = mesh.boundary_facets_where(|x| x[1] == 0.0);
+    let mut data: Data<2> = common::quiet_data();
+    data.dirichlet = vec![PrescribedDisplacement {
+        name: "floor".into(),
+        facets: bottom,
+        components: [None, Some(Arc::new(|_: &[f64; 2], _: f64| 0.0))],
+        traction: None,
+    }];
+    let Err(error) = Simulation::new(common::problem(mesh, 1, data, 1.0, 2)) else {
+        panic!("a part on Γ3 was accepted");
+    };
+    let message = error.to_string();
+    assert!(
+        message.contains("`floor`") && message.contains("Γ3"),
+        "{message}"
+    );
+}
+
+#[test]
+fn a_gap_or_prescribed_displacement_that_turns_non_finite_stops_the_step_naming_it() {
+    let gap: PointScalarField<2> = Arc::new(|_, t| if t > 0.3 { f64::NAN } else { 0.0 });
+    let mut simulation = pressed_square(gap, ContactTreatment::Explicit);
+    let error = simulation.run(|_| Ok(())).unwrap_err().to_string();
+    assert!(
+        error.contains("gap") && error.contains("contact node") && error.contains("t = 0.375"),
+        "{error}"
+    );
+
+    let mesh = common::square(2);
+    let left = mesh.boundary_facets_where(|x| x[0] == 0.0);
+    let mut data: Data<2> = common::quiet_data();
+    data.dirichlet = vec![PrescribedDisplacement {
+        name: "grip".into(),
+        facets: left,
+        components: [
+            Some(Arc::new(|_: &[f64; 2], t: f64| {
+                (0.5 - t).sqrt() - 0.5f64.sqrt()
+            })),
+            None,
+        ],
+        traction: None,
+    }];
+    let mut simulation = Simulation::new(common::problem(mesh, 1, data, 1.0, 4)).unwrap();
+    let error = simulation.run(|_| Ok(())).unwrap_err().to_string();
+    assert!(
+        error.contains("`grip`") && error.contains("component 0") && error.contains("NaN"),
+        "{error}"
+    );
+}
