@@ -40,8 +40,22 @@ use std::path::Path;
 
 /// Name of the time history.
 pub const HISTORY_FILE: &str = "history.csv";
-/// Header of the time history (see the module documentation for the columns).
+/// The fixed columns of the time history (see the module documentation); the reaction columns
+/// of the parts of Γ1 follow them ([`history_header`]).
 pub const HISTORY_HEADER: &str = "step,t,normal_force,tangential_force,force_x,force_y,force_z,contact_zone,zone_min,zone_max,slip_zone,stick,slip,separated,slip_rate,max_accumulated_slip,friction_power,friction_dissipation,viscous_power,viscous_dissipation,mean_damage,area_damage_below_half,velocity_kkt,damage_kkt,newton_iterations,friction_iterations,damage_iterations";
+
+/// The header of `history.csv` for the parts `parts` of Γ1 in dimension `dim`: the fixed
+/// columns, then `reaction_<part>_x`, `…_y` (, `…_z`) per part — the resultant force that the
+/// support of the part exerts on the body.
+pub fn history_header(parts: &[String], dim: usize) -> String {
+    let mut header = HISTORY_HEADER.to_string();
+    for part in parts {
+        for axis in &["x", "y", "z"][..dim] {
+            header.push_str(&format!(",reaction_{part}_{axis}"));
+        }
+    }
+    header
+}
 
 /// The running sums of a run after step n.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -65,7 +79,7 @@ impl RunningSums {
 }
 
 /// Integral quantities of one step (a row of `history.csv`).
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct HistoryRow {
     /// n.
     pub step: usize,
@@ -115,6 +129,8 @@ pub struct HistoryRow {
     pub friction_iterations: usize,
     /// Active-set iterations of the damage step.
     pub damage_iterations: usize,
+    /// The reaction of each part of Γ1 (D components per part, in the order of the header).
+    pub reactions: Vec<f64>,
 }
 
 impl HistoryRow {
@@ -150,6 +166,14 @@ impl HistoryRow {
             self.friction_iterations,
             self.damage_iterations
         )
+        .trim_end()
+        .to_string()
+            + &self
+                .reactions
+                .iter()
+                .map(|r| format!(",{r}"))
+                .collect::<String>()
+            + "\n"
     }
 }
 
@@ -354,17 +378,17 @@ pub fn viscous_power<const D: usize>(
 /// Keeps the header and the rows of steps 1, …, `step` of `history.csv` (rewritten
 /// atomically). Rows after them — steps done after the last saved step, possibly a line cut
 /// short by a crash — are dropped; a missing, reordered or malformed row among them is an error.
-pub fn truncate_history(path: &Path, step: usize) -> Result<(), InputError> {
+pub fn truncate_history(path: &Path, step: usize, header: &str) -> Result<(), InputError> {
     let text = std::fs::read_to_string(path).map_err(|e| InputError::io("reading", path, e))?;
     let mut lines = text.lines();
-    if lines.next() != Some(HISTORY_HEADER) {
+    if lines.next() != Some(header) {
         return Err(InputError::InvalidInput(format!(
             "{}: the first line is not the history header of this version",
             path.display()
         )));
     }
-    let columns = HISTORY_HEADER.split(',').count();
-    let mut kept = format!("{HISTORY_HEADER}\n");
+    let columns = header.split(',').count();
+    let mut kept = format!("{header}\n");
     for expected in 1..=step {
         let line = lines.next().unwrap_or("");
         let fields: Vec<&str> = line.split(',').collect();
@@ -578,6 +602,7 @@ pub(crate) mod tests {
                 newton_iterations: 1,
                 friction_iterations: 1,
                 damage_iterations: 1,
+                reactions: Vec::new(),
             }
             .csv_line()
         };
@@ -588,24 +613,26 @@ pub(crate) mod tests {
         // rows 1..3 complete, then a row cut short by a crash
         let text = format!("{HISTORY_HEADER}\n{}{}{}4,0.4,0", row(1), row(2), row(3));
         std::fs::write(&path, &text).unwrap();
-        truncate_history(&path, 3).unwrap();
+        truncate_history(&path, 3, HISTORY_HEADER).unwrap();
         assert_eq!(
             std::fs::read_to_string(&path).unwrap(),
             format!("{HISTORY_HEADER}\n{}{}{}", row(1), row(2), row(3))
         );
-        truncate_history(&path, 1).unwrap();
+        truncate_history(&path, 1, HISTORY_HEADER).unwrap();
         assert_eq!(
             std::fs::read_to_string(&path).unwrap(),
             format!("{HISTORY_HEADER}\n{}", row(1))
         );
         // a missing row is an error naming the line
-        let error = truncate_history(&path, 2).unwrap_err().to_string();
+        let error = truncate_history(&path, 2, HISTORY_HEADER)
+            .unwrap_err()
+            .to_string();
         assert!(
             error.contains(":3: expected the complete row of step 2"),
             "{error}"
         );
         std::fs::write(&path, "step,t\n").unwrap();
-        assert!(truncate_history(&path, 0).is_err());
+        assert!(truncate_history(&path, 0, HISTORY_HEADER).is_err());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -25,9 +25,9 @@
 
 use crate::folder;
 use crate::history::{
-    contact_integrals, damage_integrals, tangential_speed, truncate_history, viscous_power,
-    ContactStep, ForceCycle, HistoryRow, RunningSums, CYCLE_WINDOW_STEPS, HISTORY_FILE,
-    HISTORY_HEADER,
+    contact_integrals, damage_integrals, history_header, tangential_speed, truncate_history,
+    viscous_power, ContactStep, ForceCycle, HistoryRow, RunningSums, CYCLE_WINDOW_STEPS,
+    HISTORY_FILE,
 };
 use crate::pictures::{
     contact_history_svg, damage_picture_file, damage_svg, picture_steps, pressure_steps,
@@ -320,6 +320,7 @@ pub fn run<const D: usize>(
 
     let mut saved_steps = Vec::new();
     let mut sums = RunningSums::new(contact.len());
+    let header = history_header(simulation.dirichlet_parts(), D);
     let step_limit;
     if options.resume {
         let saved = read_saved_state(&dir)?;
@@ -409,7 +410,7 @@ pub fn run<const D: usize>(
             damage: saved.damage,
         })?;
         step_limit = check_step_limit(setup, &simulation)?;
-        truncate_history(&history_path, saved.step)?;
+        truncate_history(&history_path, saved.step, &header)?;
         let recorded: Vec<usize> = (1..=saved.step)
             .filter(|&n| records_contact_history(n, setup.every, steps))
             .collect();
@@ -420,7 +421,7 @@ pub fn run<const D: usize>(
         if options.overwrite {
             folder::remove_output(&dir)?;
         }
-        write_atomic(&history_path, format!("{HISTORY_HEADER}\n").as_bytes())?;
+        write_atomic(&history_path, format!("{header}\n").as_bytes())?;
         write_atomic(
             &contact_history_path,
             format!("{CONTACT_HISTORY_HEADER}\n").as_bytes(),
@@ -545,6 +546,12 @@ pub fn run<const D: usize>(
             newton_iterations: velocity.stats.newton_iterations,
             friction_iterations: velocity.stats.friction_iterations,
             damage_iterations: damage.stats.iterations,
+            reactions: simulation
+                .part_reactions(&velocity.reaction)
+                .iter()
+                .flatten()
+                .copied()
+                .collect(),
         };
         history
             .write_all(row.csv_line().as_bytes())

@@ -164,6 +164,11 @@ fn output_is_read_back_with_fields_sizes_and_contact_status() {
     let value = |row: &str, name: &str| -> f64 {
         row.split(',').nth(column(name)).unwrap().parse().unwrap()
     };
+    // the reaction of the clamped side x = 0, one column per component
+    assert_eq!(
+        &header[header.len() - 2..],
+        &["reaction_clamped_x", "reaction_clamped_y"]
+    );
     let time_step = 0.05;
     // Γ3 is the bottom side (0, 2) × {0} minus its clamped end: the contact weights sum to 2
     let (mut friction_energy, mut viscous_energy, mut slipped) = (0.0, 0.0, 0.0f64);
