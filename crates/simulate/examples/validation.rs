@@ -1,0 +1,380 @@
+//! Validation of `simulate` against classical analytic solutions of contact mechanics (issue 17):
+//!
+//! - `hertz`: Hertz line contact (plane strain) of a half-disc of radius R on a rigid flat,
+//!   loaded by a prescribed approach δ of its flat side, frictionless: the contact half-width a
+//!   and the peak pressure p0 against a = √(4PR/(πE*)), p0 = 2P/(πa) for the measured load P,
+//!   over meshes and foundation stiffnesses c_ν; and the pressure profile p0 √(1 − x²/a²)
+//!   against the computed nodal pressures;
+//! - `sliding`: a block pressed onto the foundation and dragged along it: the tangential
+//!   resultant grows and saturates at μP.
+//!
+//! ```text
+//! cargo run --release -p simulate --example validation -- [hertz|sliding|all] [--quick]
+//! ```
+//!
+//! Each prints its table, writes it to `reports/validation/<name>.md` and draws an SVG beside
+//! it. `--quick` runs the coarsest mesh only. The problem files are in `verification/validation/`.
+//!
+//! Both use the viscosity τ times the elasticity and the step k = τ: with the normal compliance
+//! taken implicitly, a step of (5.1) is then E u_n + C(u_n) = F exactly (the viscous term
+//! τE(u_n − u_{n−1})/k cancels the explicit elastic term E u_{n−1}), so each step is the static
+//! elastic contact problem at its load — a step per load increment, at any c_ν.
+
+use plotters::prelude::*;
+use simulate::pictures::read_contact_history;
+use simulate::run::RunOptions;
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// The folder of the validation problem files.
+fn validation_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../verification/validation")
+}
+
+/// The report folder.
+fn report_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../reports/validation")
+}
+
+/// One run of a problem file with some of its lines replaced: the history rows (column →
+/// value) and the path of its output folder.
+struct Run {
+    history: Vec<BTreeMap<String, f64>>,
+    out: PathBuf,
+    seconds: f64,
+}
+
+fn run(template: &str, replacements: &[(&str, String)], name: &str) -> Run {
+    let mut text = template.to_string();
+    for (from, to) in replacements {
+        assert!(text.contains(from), "`{from}` is not in the problem file");
+        text = text.replace(from, to);
+    }
+    let scratch = std::env::temp_dir().join(format!("validation-{}", std::process::id()));
+    std::fs::create_dir_all(&scratch).unwrap();
+    let problem = scratch.join(format!("{name}.toml"));
+    std::fs::write(&problem, text).unwrap();
+    let out = scratch.join(name);
+    let clock = Instant::now();
+    simulate::run_file(
+        &problem,
+        &RunOptions {
+            out: Some(out.clone()),
+            overwrite: true,
+            quiet: true,
+            ..RunOptions::default()
+        },
+    )
+    .unwrap_or_else(|error| panic!("{name}: {error}"));
+    let seconds = clock.elapsed().as_secs_f64();
+    let csv = std::fs::read_to_string(out.join("history.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    let history = lines
+        .map(|line| {
+            header
+                .iter()
+                .cloned()
+                .zip(line.split(',').map(|v| v.parse().unwrap_or(f64::NAN)))
+                .collect()
+        })
+        .collect();
+    Run {
+        history,
+        out,
+        seconds,
+    }
+}
+
+/// Relative difference in percent.
+fn percent(computed: f64, expected: f64) -> f64 {
+    100.0 * (computed - expected) / expected
+}
+
+/// One Hertz run: the measured load, half-widths and peak pressure, and the Hertz values.
+struct Hertz {
+    load: f64,
+    /// From the zero crossing of the interpolated penetration (`zone_min`, `zone_max`).
+    zone_half_width: f64,
+    /// From the pressure profile: the mean of |x| / √(1 − (p/p0)²) over the nodes with
+    /// 0.2 p0 < p < 0.9 p0 (the half-width of the ellipse through them).
+    profile_half_width: f64,
+    peak: f64,
+    hertz_half_width: f64,
+    hertz_peak: f64,
+    pressures: Vec<(f64, f64)>,
+    seconds: f64,
+}
+
+/// Runs `hertz.toml` on the mesh of contact size `mesh` with c_ν = `stiffness` and E = 1, ν.
+fn hertz_run(mesh: &str, stiffness: f64, poisson: f64) -> Hertz {
+    let template = std::fs::read_to_string(validation_dir().join("hertz.toml")).unwrap();
+    let young = 1.0;
+    let shear = young / (2.0 * (1.0 + poisson));
+    let lambda = young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson));
+    let mesh_path = validation_dir().join(format!("hertz_h{mesh}.msh"));
+    let result = run(
+        &template,
+        &[
+            (
+                "file = \"hertz_h0.0025.msh\"",
+                format!("file = \"{}\"", mesh_path.display()),
+            ),
+            ("stiffness = 1e6", format!("stiffness = {stiffness:e}")),
+            (
+                "shear = 0.38461538461538464, bulk = 0.5769230769230769",
+                format!("shear = {shear:?}, bulk = {lambda:?}"),
+            ),
+            (
+                "shear_modulus = 0.38461538461538464, lame_lambda = 0.5769230769230769",
+                format!("shear_modulus = {shear:?}, lame_lambda = {lambda:?}"),
+            ),
+        ],
+        &format!("hertz-{mesh}-{stiffness:e}-{poisson}"),
+    );
+    let last = result.history.last().unwrap();
+    let load = last["force_y"];
+    let records = read_contact_history(&result.out.join("contact_history.csv")).unwrap();
+    let final_step = records.last().unwrap().step;
+    let pressures: Vec<(f64, f64)> = records
+        .iter()
+        .filter(|r| r.step == final_step)
+        .map(|r| (r.coordinate, r.normal_pressure))
+        .collect();
+    let peak = pressures.iter().fold(0.0f64, |m, p| m.max(p.1));
+    let widths: Vec<f64> = pressures
+        .iter()
+        .filter(|(_, p)| *p > 0.2 * peak && *p < 0.9 * peak)
+        .map(|(x, p)| x.abs() / (1.0 - (p / peak).powi(2)).sqrt())
+        .collect();
+    let radius = 1.0;
+    let plane_modulus = young / (1.0 - poisson * poisson);
+    let hertz_half_width = (4.0 * load * radius / (std::f64::consts::PI * plane_modulus)).sqrt();
+    Hertz {
+        load,
+        zone_half_width: 0.5 * (last["zone_max"] - last["zone_min"]),
+        profile_half_width: widths.iter().sum::<f64>() / widths.len() as f64,
+        peak,
+        hertz_half_width,
+        hertz_peak: 2.0 * load / (std::f64::consts::PI * hertz_half_width),
+        pressures,
+        seconds: result.seconds,
+    }
+}
+
+const HERTZ_HEADER: &str = "| h at contact | c_ν | ν | P | a/R | a (zone) | a (profile) | p0 | error a (zone) | error a (profile) | error p0 | time |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+
+fn hertz_row(table: &mut String, mesh: &str, stiffness: f64, poisson: f64, h: &Hertz) {
+    writeln!(
+        table,
+        "| {mesh} | {stiffness:.0e} | {poisson} | {:.5e} | {:.4} | {:.5} | {:.5} | {:.5} | {:+.2} % | {:+.2} % | {:+.2} % | {:.1} s |",
+        h.load,
+        h.hertz_half_width,
+        h.zone_half_width,
+        h.profile_half_width,
+        h.peak,
+        percent(h.zone_half_width, h.hertz_half_width),
+        percent(h.profile_half_width, h.hertz_half_width),
+        percent(h.peak, h.hertz_peak),
+        h.seconds
+    )
+    .unwrap();
+}
+
+/// The Hertz line-contact validation: a table over meshes × c_ν at ν = 0.3, a table over ν on
+/// the finest mesh, and the pressure profile.
+fn hertz(quick: bool) -> String {
+    let meshes: &[&str] = if quick {
+        &["0.01"]
+    } else {
+        &["0.01", "0.005", "0.0025"]
+    };
+    let stiffnesses: &[f64] = if quick {
+        &[1e6]
+    } else {
+        &[10.0, 100.0, 1e3, 1e4, 1e5, 1e6]
+    };
+    let mut table = format!(
+        "Against a = √(4PR/(πE*)) and p0 = 2P/(πa) for the measured load P (E = 1, R = 1).\n\n{HERTZ_HEADER}"
+    );
+    let mut profile = None;
+    for mesh in meshes {
+        for &stiffness in stiffnesses {
+            let result = hertz_run(mesh, stiffness, 0.3);
+            hertz_row(&mut table, mesh, stiffness, 0.3, &result);
+            profile = Some((mesh.to_string(), stiffness, result));
+        }
+    }
+    if !quick {
+        table.push_str("\nThe normal–tangential coupling, on the finest mesh at c_ν = 1e6: the gap is measured along the arc's normal, so the surface's lateral displacement u_x (∝ (1 − 2ν)/(1 − ν)) enters u_ν = u·ν with the slope x/R, a term Hertz's theory neglects; it vanishes as ν → 1/2.\n\n");
+        table.push_str(HERTZ_HEADER);
+        for poisson in [0.3, 0.4, 0.45, 0.49] {
+            let result = hertz_run("0.0025", 1e6, poisson);
+            hertz_row(&mut table, "0.0025", 1e6, poisson, &result);
+        }
+    }
+    let (mesh, stiffness, result) = profile.unwrap();
+    let picture = report_dir().join("hertz_pressure.svg");
+    pressure_svg(
+        &picture,
+        &result.pressures,
+        result.hertz_half_width,
+        result.hertz_peak,
+        &format!("h = {mesh}, c_ν = {stiffness:.0e}, ν = 0.3"),
+    );
+    table
+}
+
+/// The computed nodal pressures against the Hertz profile p0 √(1 − x²/a²).
+fn pressure_svg(path: &Path, pressures: &[(f64, f64)], width: f64, peak: f64, label: &str) {
+    let root = SVGBackend::new(path, (720, 420)).into_drawing_area();
+    root.fill(&WHITE).unwrap();
+    let range = 1.6 * width;
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            format!("Hertz line contact: pressure on the arc ({label})"),
+            ("sans-serif", 18),
+        )
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(60)
+        .build_cartesian_2d(-range..range, 0.0..1.15 * peak)
+        .unwrap();
+    chart
+        .configure_mesh()
+        .x_desc("x")
+        .y_desc("normal pressure p_ν")
+        .draw()
+        .unwrap();
+    let curve: Vec<(f64, f64)> = (0..=400)
+        .map(|i| {
+            let x = -range + 2.0 * range * i as f64 / 400.0;
+            let p = if x.abs() < width {
+                peak * (1.0 - (x / width).powi(2)).sqrt()
+            } else {
+                0.0
+            };
+            (x, p)
+        })
+        .collect();
+    chart
+        .draw_series(LineSeries::new(curve, BLACK.stroke_width(2)))
+        .unwrap()
+        .label("Hertz p0 √(1 − x²/a²) (P measured)")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+    chart
+        .draw_series(
+            pressures
+                .iter()
+                .filter(|(x, _)| x.abs() <= range)
+                .map(|&(x, p)| Circle::new((x, p), 3, RED.filled())),
+        )
+        .unwrap()
+        .label("computed nodal p_ν")
+        .legend(|(x, y)| Circle::new((x + 10, y), 3, RED.filled()));
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .unwrap();
+    root.present().unwrap();
+}
+
+/// The sliding block: tangential resultant against μP as the drag grows. The friction bound of
+/// step n is p_τ at u_{n−1} (5.1), so once the whole face slips Q_n = μ P_{n−1} exactly.
+fn sliding() -> String {
+    let template = std::fs::read_to_string(validation_dir().join("sliding.toml")).unwrap();
+    let result = run(&template, &[], "sliding");
+    let friction = 0.3;
+    let drag_per_step = 1e-4;
+    let mut table = String::from(
+        "| step | drag s | P | Q | Q/(μ P_(n−1)) | reaction x + force x | stick | slip |\n|---|---|---|---|---|---|---|---|\n",
+    );
+    let mut ratios = Vec::new();
+    let mut previous_load = f64::NAN;
+    for row in &result.history {
+        let ratio = row["tangential_force"] / (friction * previous_load);
+        let drag = drag_per_step * (row["t"] - 1.0).max(0.0);
+        if ratio.is_finite() {
+            ratios.push((drag, ratio));
+        }
+        writeln!(
+            table,
+            "| {} | {drag:.4} | {:.6e} | {:.6e} | {} | {:.1e} | {} | {} |",
+            row["step"],
+            row["normal_force"],
+            row["tangential_force"],
+            if ratio.is_finite() {
+                format!("{ratio:.6}")
+            } else {
+                "—".into()
+            },
+            row["reaction_y_max_x"] + row["force_x"],
+            row["stick"],
+            row["slip"]
+        )
+        .unwrap();
+        previous_load = row["normal_force"];
+    }
+    writeln!(table, "\n({:.1} s)", result.seconds).unwrap();
+    let path = report_dir().join("sliding.svg");
+    let root = SVGBackend::new(&path, (720, 380)).into_drawing_area();
+    root.fill(&WHITE).unwrap();
+    let end = ratios.last().map_or(1.0, |r| r.0);
+    let mut chart = ChartBuilder::on(&root)
+        .caption(
+            "Sliding block: tangential resultant Q / (μP)",
+            ("sans-serif", 18),
+        )
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(0.0..end, 0.0..1.1)
+        .unwrap();
+    chart
+        .configure_mesh()
+        .x_desc("drag s of the top side")
+        .y_desc("Q/(μP)")
+        .draw()
+        .unwrap();
+    chart
+        .draw_series(LineSeries::new(ratios.clone(), RED.stroke_width(2)))
+        .unwrap();
+    chart
+        .draw_series(
+            ratios
+                .iter()
+                .map(|&(s, r)| Circle::new((s, r), 3, RED.filled())),
+        )
+        .unwrap();
+    root.present().unwrap();
+    table
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let quick = args.iter().any(|a| a == "--quick");
+    let which = args
+        .iter()
+        .find(|a| !a.starts_with("--"))
+        .map_or("all", String::as_str);
+    std::fs::create_dir_all(report_dir()).unwrap();
+    let mut reports = Vec::new();
+    if which == "hertz" || which == "all" {
+        reports.push(("hertz", hertz(quick)));
+    }
+    if which == "sliding" || which == "all" {
+        reports.push(("sliding", sliding()));
+    }
+    for (name, table) in reports {
+        println!("## {name}\n\n{table}");
+        let text = format!(
+            "# Validation: {name}\n\n`cargo run --release -p simulate --example validation -- {name}{}`\n\n{table}",
+            if quick { " --quick" } else { "" }
+        );
+        std::fs::write(report_dir().join(format!("{name}.md")), text).unwrap();
+    }
+}
