@@ -10,52 +10,19 @@
 
 mod common;
 
-use common::{regime_contact_data, Lcg, REGIMES};
+use common::{internal_force, regime_contact_data, Lcg, REGIMES};
 
-use contact_damage::assembly::{field_strain, physical_gradients};
 use contact_damage::contact::ContactNodes;
 use contact_damage::laws::{LinearViscosity, SaturatingViscosity, Viscosity};
 use contact_damage::mesh::{BoundaryPart, BoundaryPart::*, Mesh};
-use contact_damage::quadrature::QuadratureRule;
 use contact_damage::scheme::{
     ContactTreatment, Data, PointScalarField, PrescribedDisplacement, Simulation,
 };
-use contact_damage::space::{LagrangeSpace, Tabulation};
+use contact_damage::space::LagrangeSpace;
 use contact_damage::velocity::{VelocityData, VelocityOperator, VelocitySettings};
 use nalgebra::SVector;
 use proptest::prelude::*;
 use std::sync::Arc;
-
-/// N(v) (Cartesian, node-major) by this test's own quadrature loop (degree 2l).
-fn internal_force<const D: usize>(
-    space: &LagrangeSpace<D>,
-    law: &dyn Viscosity<D>,
-    velocity: &[f64],
-) -> Vec<f64> {
-    let tab = Tabulation::cell_rule(
-        space.element(),
-        &QuadratureRule::<D>::simplex(2 * space.degree()),
-    );
-    let n = tab.nodes;
-    let mut force = vec![0.0; velocity.len()];
-    let mut grads = vec![SVector::<f64, D>::zeros(); n];
-    for cell in 0..space.mesh().num_cells() {
-        let geometry = space.geometry(cell);
-        let nodes = space.cell_nodes(cell);
-        for q in 0..tab.weights.len() {
-            physical_gradients(geometry, &tab, q, &mut grads);
-            let rate = field_strain(nodes, &grads, velocity);
-            let stress = law.stress(&rate) * (tab.weights[q] * geometry.det);
-            for (a, &node) in nodes.iter().enumerate() {
-                let traction = stress * grads[a];
-                for i in 0..D {
-                    force[node * D + i] += traction[i];
-                }
-            }
-        }
-    }
-    force
-}
 
 /// Unit square: Γ1 = {x = 0} ∪ {x = 1}, Γ3 = {y = 0}, Γ2 = {y = 1}.
 fn square_two_grips(cells: usize) -> Mesh<2> {

@@ -23,6 +23,7 @@
 use plotters::prelude::*;
 use simulate::pictures::read_contact_history;
 use simulate::run::RunOptions;
+use simulate::zone::pressure_ellipse;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -98,8 +99,7 @@ struct Hertz {
     load: f64,
     /// From the zero crossing of the interpolated penetration (`zone_min`, `zone_max`).
     zone_half_width: f64,
-    /// From the pressure profile: the mean of |x| / √(1 − (p/p0)²) over the nodes with
-    /// 0.2 p0 < p < 0.9 p0 (the half-width of the ellipse through them).
+    /// From the pressure profile ([`simulate::zone::pressure_ellipse`]).
     profile_half_width: f64,
     peak: f64,
     hertz_half_width: f64,
@@ -143,19 +143,15 @@ fn hertz_run(mesh: &str, stiffness: f64, poisson: f64) -> Hertz {
         .filter(|r| r.step == final_step)
         .map(|r| (r.coordinate, r.normal_pressure))
         .collect();
-    let peak = pressures.iter().fold(0.0f64, |m, p| m.max(p.1));
-    let widths: Vec<f64> = pressures
-        .iter()
-        .filter(|(_, p)| *p > 0.2 * peak && *p < 0.9 * peak)
-        .map(|(x, p)| x.abs() / (1.0 - (p / peak).powi(2)).sqrt())
-        .collect();
+    let (peak, profile_half_width) =
+        pressure_ellipse(&pressures).expect("fewer than two nodes in the contact zone");
     let radius = 1.0;
     let plane_modulus = young / (1.0 - poisson * poisson);
     let hertz_half_width = (4.0 * load * radius / (std::f64::consts::PI * plane_modulus)).sqrt();
     Hertz {
         load,
         zone_half_width: 0.5 * (last["zone_max"] - last["zone_min"]),
-        profile_half_width: widths.iter().sum::<f64>() / widths.len() as f64,
+        profile_half_width,
         peak,
         hertz_half_width,
         hertz_peak: 2.0 * load / (std::f64::consts::PI * hertz_half_width),

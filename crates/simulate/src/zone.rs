@@ -186,6 +186,21 @@ pub fn contact_force<const D: usize>(
     (normal_part + friction_part, friction_part.norm())
 }
 
+/// The peak p0 and the half-width a of the ellipse p0 √(1 − x²/a²) through nodal pressures
+/// `(x, p)` along Γ3 (a Hertz profile centred at x = 0): a is the mean of |x| / √(1 − (p/p0)²)
+/// over the nodes with 0.2 p0 < p < 0.9 p0 (away from the peak, where the formula divides by a
+/// small number, and from the edge, where the mesh resolves the profile worst). None with fewer
+/// than two such nodes.
+pub fn pressure_ellipse(pressures: &[(f64, f64)]) -> Option<(f64, f64)> {
+    let peak = pressures.iter().fold(0.0f64, |m, p| m.max(p.1));
+    let widths: Vec<f64> = pressures
+        .iter()
+        .filter(|(_, p)| *p > 0.2 * peak && *p < 0.9 * peak)
+        .map(|(x, p)| x.abs() / (1.0 - (p / peak).powi(2)).sqrt())
+        .collect();
+    (widths.len() >= 2).then(|| (peak, widths.iter().sum::<f64>() / widths.len() as f64))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -250,6 +265,23 @@ mod tests {
             assert!((zone.measure - 0.3).abs() < 1e-14, "{zone:?}");
             assert!(zone.lower.abs() < 1e-14 && (zone.upper - 0.3).abs() < 1e-14);
         }
+    }
+
+    #[test]
+    fn pressure_ellipse_recovers_a_hertz_profile() {
+        let (peak, width) = (0.03, 0.045);
+        let pressures: Vec<(f64, f64)> = (-40..=40)
+            .map(|i| {
+                let x = 0.00125 * i as f64;
+                (x, peak * (1.0 - (x / width).powi(2)).max(0.0).sqrt())
+            })
+            .collect();
+        let (p0, a) = pressure_ellipse(&pressures).unwrap();
+        assert!(
+            (p0 - peak).abs() < 1e-15 && (a - width).abs() < 1e-14,
+            "{p0} {a}"
+        );
+        assert_eq!(pressure_ellipse(&[(0.0, 1.0), (0.1, 0.0)]), None);
     }
 
     #[test]

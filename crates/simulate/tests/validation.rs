@@ -6,6 +6,7 @@ mod common;
 use common::scratch;
 use simulate::pictures::read_contact_history;
 use simulate::run::RunOptions;
+use simulate::zone::pressure_ellipse;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -103,14 +104,7 @@ fn hertz_line_contact_on_the_coarse_mesh_matches_the_theory() {
         .filter(|r| r.step == step)
         .map(|r| (r.coordinate, r.normal_pressure))
         .collect();
-    let peak = pressures.iter().fold(0.0f64, |m, p| m.max(p.1));
-    let widths: Vec<f64> = pressures
-        .iter()
-        .filter(|(_, p)| *p > 0.2 * peak && *p < 0.9 * peak)
-        .map(|(x, p)| x.abs() / (1.0 - (p / peak).powi(2)).sqrt())
-        .collect();
-    assert!(widths.len() >= 4, "too few nodes in the contact zone");
-    let half_width = widths.iter().sum::<f64>() / widths.len() as f64;
+    let (peak, half_width) = pressure_ellipse(&pressures).expect("no contact zone");
     let plane_modulus = 1.0 / (1.0 - 0.3f64.powi(2));
     let hertz_width = (4.0 * load / (std::f64::consts::PI * plane_modulus)).sqrt();
     let hertz_peak = 2.0 * load / (std::f64::consts::PI * hertz_width);

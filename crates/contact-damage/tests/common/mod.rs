@@ -1,11 +1,15 @@
 //! Shared builders for the integration tests.
 #![allow(dead_code)]
 
+use contact_damage::assembly::{field_strain, physical_gradients};
 use contact_damage::laws::{
-    DamageSourceFn, DamagedHooke, LinearViscosity, NormalComplianceCoulomb, Tensor,
+    DamageSourceFn, DamagedHooke, LinearViscosity, NormalComplianceCoulomb, Tensor, Viscosity,
 };
 use contact_damage::mesh::{BoundaryPart, Mesh};
+use contact_damage::quadrature::QuadratureRule;
 use contact_damage::scheme::{Data, Model, Problem, SchemeSettings};
+use contact_damage::space::{LagrangeSpace, Tabulation};
+use nalgebra::SVector;
 use std::sync::Arc;
 
 /// The default model of the tests: linear viscosity, damaged Hooke, a smooth damage source.
@@ -177,4 +181,36 @@ pub fn regime_contact_data(regime: Regime, count: usize, rng: &mut Lcg) -> (Vec<
             },
         })
         .unzip()
+}
+
+/// N(v) (Cartesian, node-major) by this test's own quadrature loop, with the degree-2l rule
+/// the solver uses for a nonlinear law.
+pub fn internal_force<const D: usize>(
+    space: &LagrangeSpace<D>,
+    law: &dyn Viscosity<D>,
+    velocity: &[f64],
+) -> Vec<f64> {
+    let tab = Tabulation::cell_rule(
+        space.element(),
+        &QuadratureRule::<D>::simplex(2 * space.degree()),
+    );
+    let n = tab.nodes;
+    let mut force = vec![0.0; velocity.len()];
+    let mut grads = vec![SVector::<f64, D>::zeros(); n];
+    for cell in 0..space.mesh().num_cells() {
+        let geometry = space.geometry(cell);
+        let nodes = space.cell_nodes(cell);
+        for q in 0..tab.weights.len() {
+            physical_gradients(geometry, &tab, q, &mut grads);
+            let rate = field_strain(nodes, &grads, velocity);
+            let stress = law.stress(&rate) * (tab.weights[q] * geometry.det);
+            for (a, &node) in nodes.iter().enumerate() {
+                let traction = stress * grads[a];
+                for i in 0..D {
+                    force[node * D + i] += traction[i];
+                }
+            }
+        }
+    }
+    force
 }
