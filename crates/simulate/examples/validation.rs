@@ -5,11 +5,13 @@
 //!   and the peak pressure p0 against a = √(4PR/(πE*)), p0 = 2P/(πa) for the measured load P,
 //!   over meshes and foundation stiffnesses c_ν; and the pressure profile p0 √(1 − x²/a²)
 //!   against the computed nodal pressures;
+//! - `cattaneo`: Cattaneo–Mindlin partial slip of the same half-disc shifted sideways after the
+//!   normal load: the stick half-width c against a √(1 − Q/(μP));
 //! - `sliding`: a block pressed onto the foundation and dragged along it: the tangential
 //!   resultant grows and saturates at μP.
 //!
 //! ```text
-//! cargo run --release -p simulate --example validation -- [hertz|sliding|all] [--quick]
+//! cargo run --release -p simulate --example validation -- [hertz|cattaneo|sliding|all] [--quick]
 //! ```
 //!
 //! Each prints its table, writes it to `reports/validation/<name>.md` and draws an SVG beside
@@ -350,6 +352,135 @@ fn sliding() -> String {
     table
 }
 
+/// Cattaneo–Mindlin partial slip: per tangential step, the stick half-width c (half the extent
+/// of the loaded nodes that stick; node-quantized to ±h/2 per side) against
+/// a √(1 − Q/(μP)), a from the pressure profile of the same step, for ν = 0.3 and 0.49.
+fn cattaneo(quick: bool) -> String {
+    let template = std::fs::read_to_string(validation_dir().join("cattaneo.toml")).unwrap();
+    let friction = 0.5;
+    let mesh = if quick { "0.01" } else { "0.0025" };
+    let mut table = String::new();
+    let mut curves = Vec::new();
+    for poisson in [0.3, 0.49] {
+        let young = 1.0;
+        let shear = young / (2.0 * (1.0 + poisson));
+        let lambda = young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson));
+        let mesh_path = validation_dir().join(format!("hertz_h{mesh}.msh"));
+        let result = run(
+            &template,
+            &[
+                (
+                    "file = \"hertz_h0.0025.msh\"",
+                    format!("file = \"{}\"", mesh_path.display()),
+                ),
+                (
+                    "shear = 0.38461538461538464, bulk = 0.5769230769230769",
+                    format!("shear = {shear:?}, bulk = {lambda:?}"),
+                ),
+                (
+                    "shear_modulus = 0.38461538461538464, lame_lambda = 0.5769230769230769",
+                    format!("shear_modulus = {shear:?}, lame_lambda = {lambda:?}"),
+                ),
+            ],
+            &format!("cattaneo-{poisson}"),
+        );
+        let records = read_contact_history(&result.out.join("contact_history.csv")).unwrap();
+        writeln!(
+            table,
+            "ν = {poisson}, h = {mesh} at the contact ({:.1} s):\n\n| step | Q/(μP) | c/a | √(1 − Q/(μP)) | difference | stick zone centre / a |\n|---|---|---|---|---|---|",
+            result.seconds
+        )
+        .unwrap();
+        let mut points = Vec::new();
+        for row in result.history.iter().skip(1) {
+            let step = row["step"] as usize;
+            let nodes: Vec<_> = records.iter().filter(|r| r.step == step).collect();
+            let pressures: Vec<(f64, f64)> = nodes
+                .iter()
+                .map(|r| (r.coordinate, r.normal_pressure))
+                .collect();
+            let (_, half_width) = pressure_ellipse(&pressures).expect("no contact zone");
+            let stick: Vec<f64> = nodes
+                .iter()
+                .filter(|r| r.status == 1 && r.normal_pressure > 0.0)
+                .map(|r| r.coordinate)
+                .collect();
+            let (low, high) = stick
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                    (l.min(x), h.max(x))
+                });
+            let ratio = row["tangential_force"] / (friction * row["force_y"]);
+            let stick_ratio = if stick.is_empty() {
+                0.0
+            } else {
+                0.5 * (high - low) / half_width
+            };
+            let theory = (1.0 - ratio).max(0.0).sqrt();
+            writeln!(
+                table,
+                "| {step} | {ratio:.3} | {stick_ratio:.3} | {theory:.3} | {:+.3} | {:+.3} |",
+                stick_ratio - theory,
+                if stick.is_empty() {
+                    0.0
+                } else {
+                    0.5 * (high + low) / half_width
+                }
+            )
+            .unwrap();
+            points.push((ratio, stick_ratio));
+        }
+        table.push('\n');
+        curves.push((poisson, points));
+    }
+    let path = report_dir().join("cattaneo.svg");
+    let root = SVGBackend::new(&path, (640, 420)).into_drawing_area();
+    root.fill(&WHITE).unwrap();
+    let mut chart = ChartBuilder::on(&root)
+        .caption("Cattaneo–Mindlin: stick half-width c/a", ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(0.0..1.0, 0.0..1.05)
+        .unwrap();
+    chart
+        .configure_mesh()
+        .x_desc("Q/(μP)")
+        .y_desc("c/a")
+        .draw()
+        .unwrap();
+    chart
+        .draw_series(LineSeries::new(
+            (0..=100).map(|i| {
+                let q = i as f64 / 100.0;
+                (q, (1.0 - q).sqrt())
+            }),
+            BLACK.stroke_width(2),
+        ))
+        .unwrap()
+        .label("√(1 − Q/(μP))")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+    for ((poisson, points), colour) in curves.iter().zip([RED, BLUE]) {
+        chart
+            .draw_series(
+                points
+                    .iter()
+                    .map(|&(q, c)| Circle::new((q, c), 4, colour.filled())),
+            )
+            .unwrap()
+            .label(format!("computed, ν = {poisson}"))
+            .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .unwrap();
+    root.present().unwrap();
+    table
+}
+
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let quick = args.iter().any(|a| a == "--quick");
@@ -361,6 +492,9 @@ fn main() {
     let mut reports = Vec::new();
     if which == "hertz" || which == "all" {
         reports.push(("hertz", hertz(quick)));
+    }
+    if which == "cattaneo" || which == "all" {
+        reports.push(("cattaneo", cattaneo(quick)));
     }
     if which == "sliding" || which == "all" {
         reports.push(("sliding", sliding()));

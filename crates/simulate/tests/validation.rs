@@ -127,3 +127,80 @@ fn hertz_line_contact_on_the_coarse_mesh_matches_the_theory() {
     let balance = last["reaction_top_y"] + last["force_y"];
     assert!(balance.abs() <= 1e-8 * load, "y balance {balance:e}");
 }
+
+/// Cattaneo–Mindlin partial slip on the coarse mesh (P2, h = 0.01 at the contact: nodes 0.005
+/// apart): after the frictionless normal load, the sideways shift of the top grows a central
+/// stick zone whose half-width c follows a √(1 − Q/(μP)). The computed c is the half extent
+/// of the sticking loaded nodes, so it is quantized by the node spacing; the tolerance is one
+/// node spacing (0.11 a). At ν = 0.49 (no normal–tangential coupling) the stick zone stays
+/// centred to within half a node spacing.
+#[test]
+fn cattaneo_mindlin_stick_zone_follows_the_theory_on_the_coarse_mesh() {
+    let mesh = validation_dir().join("hertz_h0.01.msh");
+    let spacing = 0.005;
+    for poisson in [0.3f64, 0.49] {
+        let shear = 1.0 / (2.0 * (1.0 + poisson));
+        let lambda = poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson));
+        let (rows, out) = run(
+            "cattaneo",
+            &[
+                (
+                    "file = \"hertz_h0.0025.msh\"",
+                    format!("file = \"{}\"", mesh.display()),
+                ),
+                (
+                    "shear = 0.38461538461538464, bulk = 0.5769230769230769",
+                    format!("shear = {shear:?}, bulk = {lambda:?}"),
+                ),
+                (
+                    "shear_modulus = 0.38461538461538464, lame_lambda = 0.5769230769230769",
+                    format!("shear_modulus = {shear:?}, lame_lambda = {lambda:?}"),
+                ),
+            ],
+        );
+        let records = read_contact_history(&out.join("contact_history.csv")).unwrap();
+        let mut largest_ratio: f64 = 0.0;
+        for row in rows.iter().skip(1) {
+            let step = row["step"] as usize;
+            let nodes: Vec<_> = records.iter().filter(|r| r.step == step).collect();
+            let pressures: Vec<(f64, f64)> = nodes
+                .iter()
+                .map(|r| (r.coordinate, r.normal_pressure))
+                .collect();
+            let (_, half_width) = pressure_ellipse(&pressures).expect("no contact zone");
+            let stick: Vec<f64> = nodes
+                .iter()
+                .filter(|r| r.status == 1 && r.normal_pressure > 0.0)
+                .map(|r| r.coordinate)
+                .collect();
+            assert!(
+                !stick.is_empty(),
+                "ν = {poisson}, step {step}: nothing sticks"
+            );
+            let (low, high) = stick
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
+                    (l.min(x), h.max(x))
+                });
+            let ratio = row["tangential_force"] / (0.5 * row["force_y"]);
+            largest_ratio = largest_ratio.max(ratio);
+            let stick_half_width = 0.5 * (high - low);
+            let theory = half_width * (1.0 - ratio).sqrt();
+            assert!(
+                (stick_half_width - theory).abs() <= spacing,
+                "ν = {poisson}, step {step}, Q/μP = {ratio:.3}: c = {stick_half_width} vs {theory}"
+            );
+            if poisson > 0.45 {
+                let centre = 0.5 * (high + low);
+                assert!(
+                    centre.abs() <= 0.5 * spacing,
+                    "ν = {poisson}: centre {centre}"
+                );
+            }
+        }
+        assert!(
+            largest_ratio > 0.6,
+            "ν = {poisson}: Q/μP reached only {largest_ratio}"
+        );
+    }
+}
