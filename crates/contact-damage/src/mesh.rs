@@ -142,7 +142,23 @@ impl<const D: usize> Mesh<D> {
             .checked_mul((1..=D).product::<usize>())
             .ok_or_else(|| too_many(D - 1, cells_per_side[D - 1]))?;
 
-        let mut vertices = Vec::with_capacity(num_vertices);
+        // Refuse before allocating what cannot be allocated (the machine's memory, or the
+        // address space): an error naming the cell counts, not an abort.
+        let mut vertices: Vec<[f64; D]> = Vec::new();
+        let mut cells: Vec<usize> = Vec::new();
+        vertices
+            .try_reserve_exact(num_vertices)
+            .and_then(|()| cells.try_reserve_exact(num_cells.saturating_mul(D + 1)))
+            .map_err(|_| {
+                Error::parameter(
+                    "cells_per_side",
+                    num_cells as f64,
+                    format!(
+                        "{cells_per_side:?} gives {num_cells} cells and {num_vertices} vertices, more than this machine can allocate ({:.1} GB for the mesh alone)",
+                        mesh_bytes(num_vertices, num_cells, D) / 1e9
+                    ),
+                )
+            })?;
         for index in 0..num_vertices {
             vertices.push(std::array::from_fn(|axis| {
                 let i = (index / strides[axis]) % (cells_per_side[axis] + 1);
@@ -160,7 +176,6 @@ impl<const D: usize> Mesh<D> {
         // Kuhn simplex of permutation π: x0, x0 + e_{π0}, x0 + e_{π0} + e_{π1}, …; its
         // orientation is sign(π), so odd permutations swap their last two vertices.
         let permutations = kuhn_permutations(D);
-        let mut cells = Vec::with_capacity(num_cells * (D + 1));
         for box_index in 0..num_boxes {
             let mut origin = 0;
             let mut rest = box_index;
@@ -665,6 +680,12 @@ fn check_dimension<const D: usize>() -> Result<()> {
     }
 }
 
+/// Bytes of the vertex coordinates and cell connectivity of a mesh.
+fn mesh_bytes(vertices: usize, cells: usize, dim: usize) -> f64 {
+    vertices as f64 * (dim * std::mem::size_of::<f64>()) as f64
+        + cells as f64 * ((dim + 1) * std::mem::size_of::<usize>()) as f64
+}
+
 fn too_many(axis: usize, count: usize) -> Error {
     Error::parameter(
         format!("cells_per_side[{axis}]"),
@@ -1055,6 +1076,24 @@ mod tests {
             [[Neumann, Contact]; 2],
         ));
         assert!(message.contains("Korn"), "{message}");
+    }
+
+    #[test]
+    fn box_mesh_refuses_sizes_it_cannot_allocate_naming_the_cells() {
+        // 1e9 × 1e9 intervals: the index type holds the counts, the address space does not
+        let error = Mesh::<2>::box_mesh(
+            [0.0; 2],
+            [1.0; 2],
+            [1_000_000_000; 2],
+            [[BoundaryPart::Dirichlet, BoundaryPart::Neumann]; 2],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            error.contains("cells_per_side")
+                && error.contains("more than this machine can allocate"),
+            "{error}"
+        );
     }
 
     #[test]
