@@ -150,8 +150,82 @@ where
     global
 }
 
+/// Quadrature points of a set of boundary facets, in facet order, with what the scatter needs.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct FacetPoints<const D: usize> {
+    /// Physical points.
+    pub(crate) points: Vec<[f64; D]>,
+    /// Outward unit normal of the facet of each point.
+    pub(crate) normals: Vec<[f64; D]>,
+    /// The cell of the facet of each point.
+    pub(crate) cells: Vec<usize>,
+    /// φ_a(x_p) × weight × facet measure, `nodes` per point.
+    pub(crate) weighted_values: Vec<f64>,
+}
+
+impl<const D: usize> FacetPoints<D> {
+    pub(crate) fn new(
+        space: &LagrangeSpace<D>,
+        rule: &FacetRule,
+        select: impl Fn(usize) -> bool,
+    ) -> Self {
+        let mesh = space.mesh();
+        let element = space.element();
+        let n = element.num_nodes();
+        let mut values = [0.0; 10];
+        let mut facets = Self::default();
+        for f in (0..mesh.num_facets()).filter(|&f| select(f)) {
+            let cell = mesh.facet_cell(f);
+            let geometry = space.geometry(cell);
+            let normal = mesh.facet_normal(f);
+            let measure = mesh.facet_measure(f);
+            let vertices: Vec<[f64; D]> = mesh.facet(f).iter().map(|&v| mesh.vertex(v)).collect();
+            for (bary, &weight) in rule.barycentric.iter().zip(&rule.weights) {
+                let x: [f64; D] = std::array::from_fn(|i| {
+                    bary.iter().zip(&vertices).map(|(l, p)| l * p[i]).sum()
+                });
+                element.values(&geometry.reference_point(&x), &mut values[..n]);
+                facets.points.push(x);
+                facets.normals.push(normal);
+                facets.cells.push(cell);
+                facets
+                    .weighted_values
+                    .extend(values[..n].iter().map(|v| v * weight * measure));
+            }
+        }
+        facets
+    }
+
+    pub(crate) fn len(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Adds Σ_p φ_a(x_p) w_p data_p to `global` (`components` values per point and per node),
+    /// in point order.
+    pub(crate) fn scatter(
+        &self,
+        space: &LagrangeSpace<D>,
+        components: usize,
+        data: &[f64],
+        global: &mut [f64],
+    ) {
+        let n = space.nodes_per_cell();
+        for (p, &cell) in self.cells.iter().enumerate() {
+            let phi = &self.weighted_values[p * n..(p + 1) * n];
+            for (a, &node) in space.cell_nodes(cell).iter().enumerate() {
+                if phi[a] != 0.0 {
+                    for i in 0..components {
+                        global[node * components + i] += phi[a] * data[p * components + i];
+                    }
+                }
+            }
+        }
+    }
+}
+
 /// Adds ∫_F g·φ_a dΓ over the boundary facets F selected by `select`, for a `components`-valued
-/// integrand `integrand(x, normal, out)`, with a facet rule of the given degree.
+/// integrand `integrand(x, normal, out)`, with a facet rule of the given degree (point by point;
+/// the scheme keeps its facet points once per mesh instead).
 pub fn add_facet_integrals<const D: usize>(
     space: &LagrangeSpace<D>,
     degree: usize,
@@ -160,36 +234,15 @@ pub fn add_facet_integrals<const D: usize>(
     integrand: impl Fn(&[f64; D], &[f64; D], &mut [f64]),
     global: &mut [f64],
 ) {
-    let mesh = space.mesh();
-    let rule = FacetRule::new(D, degree);
-    let element = space.element();
-    let n = element.num_nodes();
-    let mut values = [0.0; 10];
-    let mut data = vec![0.0; components];
-    for f in 0..mesh.num_facets() {
-        if !select(f) {
-            continue;
-        }
-        let cell = mesh.facet_cell(f);
-        let geometry = space.geometry(cell);
-        let normal = mesh.facet_normal(f);
-        let measure = mesh.facet_measure(f);
-        let vertices: Vec<[f64; D]> = mesh.facet(f).iter().map(|&v| mesh.vertex(v)).collect();
-        for (bary, &weight) in rule.barycentric.iter().zip(&rule.weights) {
-            let x: [f64; D] =
-                std::array::from_fn(|i| bary.iter().zip(&vertices).map(|(l, p)| l * p[i]).sum());
-            let xi = geometry.reference_point(&x);
-            element.values(&xi, &mut values[..n]);
-            data.fill(0.0);
-            integrand(&x, &normal, &mut data);
-            for (a, &node) in space.cell_nodes(cell).iter().enumerate() {
-                let phi = values[a] * weight * measure;
-                if phi != 0.0 {
-                    for i in 0..components {
-                        global[node * components + i] += phi * data[i];
-                    }
-                }
-            }
-        }
+    let facets = FacetPoints::new(space, &FacetRule::new(D, degree), select);
+    let mut data = vec![0.0; facets.len() * components];
+    for ((x, normal), out) in facets
+        .points
+        .iter()
+        .zip(&facets.normals)
+        .zip(data.chunks_mut(components))
+    {
+        integrand(x, normal, out);
     }
+    facets.scatter(space, components, &data, global);
 }

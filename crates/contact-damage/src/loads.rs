@@ -11,7 +11,7 @@
 //! over chunks) or of a boundary part; the element vectors are summed into the global vectors
 //! in cell (and facet) order, so the loads do not depend on the number of threads.
 
-use crate::assembly::{field_strain, physical_gradients};
+use crate::assembly::{field_strain, physical_gradients, FacetPoints};
 use crate::mesh::BoundaryPart;
 use crate::quadrature::QuadratureRule;
 use crate::scheme::{Data, Model, State};
@@ -22,75 +22,6 @@ use rayon::prelude::*;
 /// Cells per parallel task of the load assembly (the batch size of field evaluations is this
 /// times the number of quadrature points per cell).
 const CHUNK_CELLS: usize = 64;
-
-/// Quadrature points of a set of boundary facets, in facet order, with what the scatter needs.
-#[derive(Debug, Clone, Default)]
-struct FacetPoints<const D: usize> {
-    /// Physical points.
-    points: Vec<[f64; D]>,
-    /// Outward unit normal of the facet of each point.
-    normals: Vec<[f64; D]>,
-    /// The cell of the facet of each point.
-    cells: Vec<usize>,
-    /// φ_a(x_p) × weight × facet measure, `nodes` per point.
-    weighted_values: Vec<f64>,
-}
-
-impl<const D: usize> FacetPoints<D> {
-    fn new(space: &LagrangeSpace<D>, rule: &FacetRule, select: impl Fn(usize) -> bool) -> Self {
-        let mesh = space.mesh();
-        let element = space.element();
-        let n = element.num_nodes();
-        let mut values = [0.0; 10];
-        let mut facets = Self::default();
-        for f in (0..mesh.num_facets()).filter(|&f| select(f)) {
-            let cell = mesh.facet_cell(f);
-            let geometry = space.geometry(cell);
-            let normal = mesh.facet_normal(f);
-            let measure = mesh.facet_measure(f);
-            let vertices: Vec<[f64; D]> = mesh.facet(f).iter().map(|&v| mesh.vertex(v)).collect();
-            for (bary, &weight) in rule.barycentric.iter().zip(&rule.weights) {
-                let x: [f64; D] = std::array::from_fn(|i| {
-                    bary.iter().zip(&vertices).map(|(l, p)| l * p[i]).sum()
-                });
-                element.values(&geometry.reference_point(&x), &mut values[..n]);
-                facets.points.push(x);
-                facets.normals.push(normal);
-                facets.cells.push(cell);
-                facets
-                    .weighted_values
-                    .extend(values[..n].iter().map(|v| v * weight * measure));
-            }
-        }
-        facets
-    }
-
-    fn len(&self) -> usize {
-        self.points.len()
-    }
-
-    /// Adds Σ_p φ_a(x_p) w_p data_p to `global` (`components` values per point and per node),
-    /// in point order.
-    fn scatter(
-        &self,
-        space: &LagrangeSpace<D>,
-        components: usize,
-        data: &[f64],
-        global: &mut [f64],
-    ) {
-        let n = space.nodes_per_cell();
-        for (p, &cell) in self.cells.iter().enumerate() {
-            let phi = &self.weighted_values[p * n..(p + 1) * n];
-            for (a, &node) in space.cell_nodes(cell).iter().enumerate() {
-                if phi[a] != 0.0 {
-                    for i in 0..components {
-                        global[node * components + i] += phi[a] * data[p * components + i];
-                    }
-                }
-            }
-        }
-    }
-}
 
 /// The time-independent quadrature data of the loads, computed once per mesh.
 #[derive(Debug, Clone)]

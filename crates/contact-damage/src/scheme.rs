@@ -3,7 +3,7 @@
 //! depend only on step n−1 — then update u_n = u_{n−1} + k v_n (5.4)–(5.5). Initial data are
 //! interpolated, u_0 = Π^h u0, β_0 = Π^h β0 (5.3), (5.30).
 
-use crate::assembly::add_facet_integrals;
+use crate::assembly::FacetPoints;
 use crate::contact::{ContactNodes, ContactStatus};
 use crate::damage::{DamageOperator, DamageSolution};
 use crate::dirichlet::DirichletConstraints;
@@ -12,7 +12,7 @@ use crate::laws::{ContactLaw, DamageSource, Elasticity, Viscosity};
 use crate::loads::LoadQuadrature;
 use crate::mesh::Mesh;
 use crate::obstacle::{BoxQpSettings, BoxQpStats};
-use crate::space::LagrangeSpace;
+use crate::space::{FacetRule, LagrangeSpace};
 use crate::stability::{step_limit, StepLimit};
 use crate::velocity::{
     ImplicitNormalCompliance, VelocityData, VelocityOperator, VelocitySettings, VelocitySolution,
@@ -223,6 +223,8 @@ pub struct Simulation<const D: usize> {
     /// None when the damage is frozen ([`DamageEvolution::Frozen`]).
     damage: Option<DamageOperator<D>>,
     loads: LoadQuadrature<D>,
+    /// The facet quadrature points of each part of Γ1 (for its traction on free components).
+    part_facets: Vec<FacetPoints<D>>,
     dirichlet: DirichletConstraints<D>,
     state: State,
     timings: StepTimings,
@@ -273,6 +275,10 @@ impl<const D: usize> Simulation<D> {
             DamageEvolution::Frozen => None,
         };
         let loads = LoadQuadrature::new(&space);
+        let part_rule = FacetRule::new(D, 2 * space.degree() + 2);
+        let part_facets = (0..dirichlet.parts.len())
+            .map(|p| FacetPoints::new(&space, &part_rule, |f| dirichlet.facet_owner[f] == Some(p)))
+            .collect();
         gap_values(&space, &contact, &problem.data.gap, 0.0)?;
         let mut displacement = space.interpolate_vector(|x| (problem.data.initial_displacement)(x));
         let prescribed = dirichlet.values(&space, 0.0)?;
@@ -322,6 +328,7 @@ impl<const D: usize> Simulation<D> {
             velocity,
             damage,
             loads,
+            part_facets,
             dirichlet,
             state,
             timings: StepTimings::default(),
@@ -425,28 +432,23 @@ impl<const D: usize> Simulation<D> {
 
     /// ∫ f·φ_a e_i over the facets of each part of Γ1 with a traction, on its free components i.
     fn add_part_tractions(&self, time: f64, velocity_load: &mut [f64]) {
-        let space = &*self.space;
-        let degree = 2 * space.degree() + 2;
-        for (p, part) in self.dirichlet.parts.iter().enumerate() {
+        for (part, facets) in self.dirichlet.parts.iter().zip(&self.part_facets) {
             let Some(traction) = &part.traction else {
                 continue;
             };
-            let owner = &self.dirichlet.facet_owner;
-            add_facet_integrals(
-                space,
-                degree,
-                D,
-                |f| owner[f] == Some(p),
-                |x, normal, out| {
-                    out.copy_from_slice(&traction(x, time, normal));
-                    for (value, component) in out.iter_mut().zip(&part.components) {
-                        if component.is_some() {
-                            *value = 0.0;
-                        }
-                    }
-                },
-                velocity_load,
-            );
+            let mut data = vec![0.0; facets.len() * D];
+            for ((x, normal), out) in facets
+                .points
+                .iter()
+                .zip(&facets.normals)
+                .zip(data.chunks_mut(D))
+            {
+                let value = traction(x, time, normal);
+                for i in (0..D).filter(|&i| part.components[i].is_none()) {
+                    out[i] = value[i];
+                }
+            }
+            facets.scatter(&self.space, D, &data, velocity_load);
         }
     }
 

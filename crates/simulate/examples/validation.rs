@@ -25,7 +25,7 @@
 use plotters::prelude::*;
 use simulate::pictures::read_contact_history;
 use simulate::run::RunOptions;
-use simulate::zone::pressure_ellipse;
+use simulate::zone::{pressure_ellipse, stick_extent};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -96,6 +96,23 @@ fn percent(computed: f64, expected: f64) -> f64 {
     100.0 * (computed - expected) / expected
 }
 
+/// The lines of the validation problem files that set E = 1, ν = 0.3 (viscosity τ = 1 times the
+/// elasticity), replaced for E = 1 and `poisson`: μ = E/(2(1 + ν)), λ = Eν/((1 + ν)(1 − 2ν)).
+fn material(poisson: f64) -> [(&'static str, String); 2] {
+    let shear = 1.0 / (2.0 * (1.0 + poisson));
+    let lambda = poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson));
+    [
+        (
+            "shear = 0.38461538461538464, bulk = 0.5769230769230769",
+            format!("shear = {shear:?}, bulk = {lambda:?}"),
+        ),
+        (
+            "shear_modulus = 0.38461538461538464, lame_lambda = 0.5769230769230769",
+            format!("shear_modulus = {shear:?}, lame_lambda = {lambda:?}"),
+        ),
+    ]
+}
+
 /// One Hertz run: the measured load, half-widths and peak pressure, and the Hertz values.
 struct Hertz {
     load: f64,
@@ -115,27 +132,19 @@ struct Hertz {
 fn hertz_run(mesh: &str, stiffness: f64, poisson: f64, approach: f64) -> Hertz {
     let template = std::fs::read_to_string(validation_dir().join("hertz.toml")).unwrap();
     let young = 1.0;
-    let shear = young / (2.0 * (1.0 + poisson));
-    let lambda = young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson));
     let mesh_path = validation_dir().join(format!("hertz_h{mesh}.msh"));
+    let mut replacements = vec![
+        (
+            "file = \"hertz_h0.0025.msh\"",
+            format!("file = \"{}\"", mesh_path.display()),
+        ),
+        ("stiffness = 1e6", format!("stiffness = {stiffness:e}")),
+        ("delta = 0.004 ", format!("delta = {approach:e} ")),
+    ];
+    replacements.extend(material(poisson));
     let result = run(
         &template,
-        &[
-            (
-                "file = \"hertz_h0.0025.msh\"",
-                format!("file = \"{}\"", mesh_path.display()),
-            ),
-            ("stiffness = 1e6", format!("stiffness = {stiffness:e}")),
-            ("delta = 0.004 ", format!("delta = {approach:e} ")),
-            (
-                "shear = 0.38461538461538464, bulk = 0.5769230769230769",
-                format!("shear = {shear:?}, bulk = {lambda:?}"),
-            ),
-            (
-                "shear_modulus = 0.38461538461538464, lame_lambda = 0.5769230769230769",
-                format!("shear_modulus = {shear:?}, lame_lambda = {lambda:?}"),
-            ),
-        ],
+        &replacements,
         &format!("hertz-{mesh}-{stiffness:e}-{poisson}-{approach}"),
     );
     let last = result.history.last().unwrap();
@@ -370,28 +379,13 @@ fn cattaneo(quick: bool) -> String {
     let mut table = String::new();
     let mut curves = Vec::new();
     for poisson in [0.3, 0.49] {
-        let young = 1.0;
-        let shear = young / (2.0 * (1.0 + poisson));
-        let lambda = young * poisson / ((1.0 + poisson) * (1.0 - 2.0 * poisson));
         let mesh_path = validation_dir().join(format!("hertz_h{mesh}.msh"));
-        let result = run(
-            &template,
-            &[
-                (
-                    "file = \"hertz_h0.0025.msh\"",
-                    format!("file = \"{}\"", mesh_path.display()),
-                ),
-                (
-                    "shear = 0.38461538461538464, bulk = 0.5769230769230769",
-                    format!("shear = {shear:?}, bulk = {lambda:?}"),
-                ),
-                (
-                    "shear_modulus = 0.38461538461538464, lame_lambda = 0.5769230769230769",
-                    format!("shear_modulus = {shear:?}, lame_lambda = {lambda:?}"),
-                ),
-            ],
-            &format!("cattaneo-{poisson}"),
-        );
+        let mut replacements = vec![(
+            "file = \"hertz_h0.0025.msh\"",
+            format!("file = \"{}\"", mesh_path.display()),
+        )];
+        replacements.extend(material(poisson));
+        let result = run(&template, &replacements, &format!("cattaneo-{poisson}"));
         let records = read_contact_history(&result.out.join("contact_history.csv")).unwrap();
         writeln!(
             table,
@@ -408,32 +402,20 @@ fn cattaneo(quick: bool) -> String {
                 .map(|r| (r.coordinate, r.normal_pressure))
                 .collect();
             let (_, half_width) = pressure_ellipse(&pressures).expect("no contact zone");
-            let stick: Vec<f64> = nodes
-                .iter()
-                .filter(|r| r.status == 1 && r.normal_pressure > 0.0)
-                .map(|r| r.coordinate)
-                .collect();
-            let (low, high) = stick
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
-                    (l.min(x), h.max(x))
-                });
+            let (stick, centre) = stick_extent(
+                nodes
+                    .iter()
+                    .map(|r| (r.coordinate, r.status, r.normal_pressure)),
+            )
+            .unwrap_or((0.0, 0.0));
             let ratio = row["tangential_force"] / (friction * row["force_y"]);
-            let stick_ratio = if stick.is_empty() {
-                0.0
-            } else {
-                0.5 * (high - low) / half_width
-            };
+            let stick_ratio = stick / half_width;
             let theory = (1.0 - ratio).max(0.0).sqrt();
             writeln!(
                 table,
                 "| {step} | {ratio:.3} | {stick_ratio:.3} | {theory:.3} | {:+.3} | {:+.3} |",
                 stick_ratio - theory,
-                if stick.is_empty() {
-                    0.0
-                } else {
-                    0.5 * (high + low) / half_width
-                }
+                centre / half_width
             )
             .unwrap();
             points.push((ratio, stick_ratio));

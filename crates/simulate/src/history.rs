@@ -137,7 +137,7 @@ impl HistoryRow {
     /// The row as a line of `history.csv` (floats in their shortest round-trip form).
     pub fn csv_line(&self) -> String {
         format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:e},{:e},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:e},{:e},{},{},{}{}\n",
             self.step,
             self.time,
             self.normal_force,
@@ -164,16 +164,12 @@ impl HistoryRow {
             self.damage_kkt,
             self.newton_iterations,
             self.friction_iterations,
-            self.damage_iterations
-        )
-        .trim_end()
-        .to_string()
-            + &self
-                .reactions
+            self.damage_iterations,
+            self.reactions
                 .iter()
                 .map(|r| format!(",{r}"))
                 .collect::<String>()
-            + "\n"
+        )
     }
 }
 

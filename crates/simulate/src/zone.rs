@@ -201,6 +201,21 @@ pub fn pressure_ellipse(pressures: &[(f64, f64)]) -> Option<(f64, f64)> {
     (widths.len() >= 2).then(|| (peak, widths.iter().sum::<f64>() / widths.len() as f64))
 }
 
+/// The half-width and the centre of the stick zone of one step along Γ3: half the extent and
+/// the midpoint of the loaded (p_ν > 0) sticking nodes among `(s, status, p_ν)`, with the status
+/// numbered as in `contact_history.csv` (1 = stick). Node-quantized: within half a node spacing
+/// per end. None when no loaded node sticks.
+pub fn stick_extent(nodes: impl IntoIterator<Item = (f64, usize, f64)>) -> Option<(f64, f64)> {
+    let (low, high) = nodes
+        .into_iter()
+        .filter(|&(_, status, pressure)| status == 1 && pressure > 0.0)
+        .fold(
+            (f64::INFINITY, f64::NEG_INFINITY),
+            |(low, high), (s, _, _)| (low.min(s), high.max(s)),
+        );
+    (low <= high).then_some((0.5 * (high - low), 0.5 * (high + low)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -282,6 +297,21 @@ mod tests {
             "{p0} {a}"
         );
         assert_eq!(pressure_ellipse(&[(0.0, 1.0), (0.1, 0.0)]), None);
+    }
+
+    #[test]
+    fn stick_extent_spans_the_loaded_sticking_nodes() {
+        let nodes = [
+            (-0.3, 1, 0.0), // sticks without load: not counted
+            (-0.2, 2, 1.0),
+            (-0.1, 1, 2.0),
+            (0.0, 1, 3.0),
+            (0.3, 1, 1.0),
+            (0.4, 0, 0.0),
+        ];
+        let (half_width, centre) = stick_extent(nodes).unwrap();
+        assert!((half_width - 0.2).abs() < 1e-15 && (centre - 0.1).abs() < 1e-15);
+        assert_eq!(stick_extent([(0.0, 2, 1.0)]), None);
     }
 
     #[test]

@@ -6,7 +6,7 @@ mod common;
 use common::scratch;
 use simulate::pictures::read_contact_history;
 use simulate::run::RunOptions;
-use simulate::zone::pressure_ellipse;
+use simulate::zone::{pressure_ellipse, stick_extent};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -168,30 +168,20 @@ fn cattaneo_mindlin_stick_zone_follows_the_theory_on_the_coarse_mesh() {
                 .map(|r| (r.coordinate, r.normal_pressure))
                 .collect();
             let (_, half_width) = pressure_ellipse(&pressures).expect("no contact zone");
-            let stick: Vec<f64> = nodes
-                .iter()
-                .filter(|r| r.status == 1 && r.normal_pressure > 0.0)
-                .map(|r| r.coordinate)
-                .collect();
-            assert!(
-                !stick.is_empty(),
-                "ν = {poisson}, step {step}: nothing sticks"
-            );
-            let (low, high) = stick
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| {
-                    (l.min(x), h.max(x))
-                });
+            let (stick_half_width, centre) = stick_extent(
+                nodes
+                    .iter()
+                    .map(|r| (r.coordinate, r.status, r.normal_pressure)),
+            )
+            .unwrap_or_else(|| panic!("ν = {poisson}, step {step}: nothing sticks"));
             let ratio = row["tangential_force"] / (0.5 * row["force_y"]);
             largest_ratio = largest_ratio.max(ratio);
-            let stick_half_width = 0.5 * (high - low);
             let theory = half_width * (1.0 - ratio).sqrt();
             assert!(
                 (stick_half_width - theory).abs() <= spacing,
                 "ν = {poisson}, step {step}, Q/μP = {ratio:.3}: c = {stick_half_width} vs {theory}"
             );
             if poisson > 0.45 {
-                let centre = 0.5 * (high + low);
                 assert!(
                     centre.abs() <= 0.5 * spacing,
                     "ν = {poisson}: centre {centre}"
