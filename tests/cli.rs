@@ -245,3 +245,66 @@ fn verify_refuses_an_out_that_is_no_writable_folder_before_solving() {
         std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).unwrap();
     }
 }
+
+/// A case file with zones2d's text changed by `from → to`, written into `dir`.
+fn changed_zones2d(dir: &std::path::Path, from: &str, to: &str) -> std::path::PathBuf {
+    let text = include_str!("../verification/zones2d.toml");
+    assert!(text.contains(from), "{from}");
+    let path = dir.join("changed.toml");
+    std::fs::write(&path, text.replace(from, to)).unwrap();
+    path
+}
+
+#[test]
+fn verify_refuses_a_domain_bound_that_is_not_finite_naming_the_key() {
+    let dir = scratch("domain");
+    let case = changed_zones2d(&dir, "upper = [1.0, 1.0]", "upper = [nan, 1.0]");
+    let stderr = refused(&["--case", case.to_str().unwrap()], &dir.join("out"));
+    assert!(
+        stderr.contains("changed.toml") && stderr.contains("domain.lower/upper"),
+        "{stderr}"
+    );
+    assert!(!stderr.contains("exact.beta"), "{stderr}");
+}
+
+#[test]
+fn verify_refuses_fewer_than_two_levels_as_an_option_error() {
+    let out = scratch("levels").join("out");
+    for levels in ["0", "1"] {
+        let stderr = refused(&["--levels", levels], &out);
+        assert!(stderr.contains("--levels"), "{stderr}");
+        assert!(!stderr.contains("case"), "{stderr}");
+    }
+}
+
+/// A contact stiffness far above the stability limit of the explicit normal compliance makes the
+/// friction solve fail; the error says why (the limit, the level, the key to change) and keeps
+/// the solver's message as the symptom.
+#[test]
+fn verify_names_the_stability_limit_when_a_stiff_case_fails() {
+    let dir = scratch("stiff");
+    let case = changed_zones2d(&dir, "stiffness = 10.0", "stiffness = 1e300");
+    let output = verify()
+        .args([
+            "--case",
+            case.to_str().unwrap(),
+            "--studies",
+            "h",
+            "--levels",
+            "2",
+        ])
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    for part in [
+        "changed.toml",
+        "stability limit",
+        "laws.contact.stiffness",
+        "4 cells and 2 steps",
+    ] {
+        assert!(stderr.contains(part), "`{part}` missing in {stderr}");
+    }
+}

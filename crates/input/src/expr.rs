@@ -899,6 +899,17 @@ impl Parser<'_> {
         right: Parsed,
     ) -> Result<Parsed, ExprError> {
         let depth = left.depth.max(right.depth) + 1;
+        if depth > MAX_DEPTH && left.depth >= right.depth {
+            // a left-leaning chain `a + b + c + …` is as deep as it is long
+            return Err(Self::error(
+                right.start + 1,
+                format!(
+                    "more than {MAX_DEPTH} terms or factors in one chain (the expression tree is \
+                     limited to depth {MAX_DEPTH}); group them in parentheses, e.g. \
+                     `(a + b + …) + (c + d + …)`"
+                ),
+            ));
+        }
         self.finish(
             make(Box::new(left.node), Box::new(right.node)),
             left.start,
@@ -1305,7 +1316,16 @@ mod tests {
         let signs = format!("{}x", "-".repeat(100_000));
         assert!(parse_error(&signs).message.contains("nested too deeply"));
         let long_sum = vec!["x"; 100_000].join("+");
-        assert!(parse_error(&long_sum).message.contains("nested too deeply"));
+        let error = parse_error(&long_sum);
+        assert!(
+            error.message.contains("terms or factors in one chain"),
+            "{error}"
+        );
+        assert_eq!(error.column, 2 * MAX_DEPTH + 1, "{error}");
+        // grouped in parentheses, the same terms parse
+        let group = vec!["x"; 150].join("+");
+        let grouped = format!("({group}) + ({group})");
+        assert_eq!(parse(&grouped).eval_f64(&[1.0; 4]), 300.0);
         // Long constant sums fold to one constant and are fine.
         let constant_sum = vec!["1"; 10_000].join("+");
         assert_eq!(parse(&constant_sum).eval_f64(&[0.0; 4]), 10_000.0);

@@ -44,8 +44,32 @@ pub fn parse_expr(
     constants: &BTreeMap<String, f64>,
 ) -> Result<Expr, InputError> {
     Expr::parse(source, variables, constants)
-        .map_err(|e| kind.error(origin, key, format!("`{source}`: {e}")))
+        .map_err(|e| kind.error(origin, key, format!("`{}`: {e}", excerpt(source, e.column))))
 }
+
+/// At most [`EXCERPT`] characters of `source` around the 1-based `column`, with `…` where text
+/// was left out, so that an error in a long expression does not echo all of it.
+fn excerpt(source: &str, column: usize) -> String {
+    let characters: Vec<char> = source.chars().collect();
+    if characters.len() <= EXCERPT {
+        return source.to_string();
+    }
+    let centre = column.saturating_sub(1).min(characters.len());
+    let start = centre.saturating_sub(EXCERPT / 2);
+    let end = (start + EXCERPT).min(characters.len());
+    let start = end.saturating_sub(EXCERPT);
+    let mut text: String = characters[start..end].iter().collect();
+    if start > 0 {
+        text.insert(0, '…');
+    }
+    if end < characters.len() {
+        text.push('…');
+    }
+    text
+}
+
+/// Length of the excerpt of an expression shown in an error.
+const EXCERPT: usize = 80;
 
 /// Checks that the entry `key` is a finite positive number.
 pub fn positive(kind: FileKind, origin: &str, key: &str, value: f64) -> Result<(), InputError> {
@@ -55,7 +79,10 @@ pub fn positive(kind: FileKind, origin: &str, key: &str, value: f64) -> Result<(
         Err(kind.error(
             origin,
             key,
-            format!("must be a positive number, got {value}"),
+            format!(
+                "must be a positive number, got {}",
+                crate::number::short(value)
+            ),
         ))
     }
 }
@@ -103,6 +130,25 @@ mod tests {
                 && error.contains("unknown variable `q`"),
             "{error}"
         );
+    }
+
+    #[test]
+    fn an_error_in_a_long_expression_shows_an_excerpt_around_the_column() {
+        let constants = BTreeMap::new();
+        let source = format!("{} + q", vec!["x"; 100_000].join(" * 1 + "));
+        let error = parse_expr(
+            FileKind::Case,
+            "c.toml",
+            "exact.beta",
+            &source,
+            &["x"],
+            &constants,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(error.len() < 600, "{} characters: {error}", error.len());
+        assert!(error.contains('…'), "{error}");
+        assert!(error.contains("terms or factors in one chain"), "{error}");
     }
 
     #[test]

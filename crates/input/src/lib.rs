@@ -8,6 +8,7 @@
 //! - [`scheme`]: the `[scheme]` table (explicit or implicit normal compliance);
 //! - [`output`]: atomic writing of output files (raw bytes, JSON, CSV), missing values;
 //! - [`threads`]: the `--threads` option;
+//! - [`number`]: numbers in messages, printed short;
 //! - [`error`]: the error type, naming file, key or line; the file kind ("case" or
 //!   "problem file") is the caller's ([`FileKind`]).
 
@@ -15,6 +16,7 @@ pub mod error;
 pub mod expr;
 pub mod file;
 pub mod laws;
+pub mod number;
 pub mod output;
 pub mod scheme;
 pub mod sides;

@@ -15,6 +15,7 @@ pub mod history;
 pub mod pictures;
 pub mod problem;
 pub mod run;
+pub mod watch;
 pub mod zone;
 
 use contact_input::{FileKind, InputError};

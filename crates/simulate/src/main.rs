@@ -75,6 +75,14 @@ fn main() -> ExitCode {
             );
             ExitCode::from(130)
         }
+        Ok(outcome) if outcome.last_step <= outcome.started_from => {
+            println!(
+                "nothing to do: the run in {} already reached step {}; output unchanged",
+                outcome.output_dir.display(),
+                outcome.started_from
+            );
+            ExitCode::SUCCESS
+        }
         Ok(outcome) => {
             println!(
                 "steps {}..{} in {:.1} s, max KKT {:.1e} (velocity) {:.1e} (damage); output in {}",

@@ -60,6 +60,7 @@
 //! (nx, ny, nz) to act on part of Γ2 only, e.g. `max(0, ny)` selects the top of a box.
 //! Every error names the file, the key and the problem ([`InputError::File`] of kind [`FileKind::Problem`]).
 
+use crate::watch::LoadWatch;
 use contact_damage::gmsh::{read_msh, GroupRef, PhysicalMap};
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::{
@@ -366,6 +367,8 @@ pub struct ProblemSetup<const D: usize> {
     /// `final_time` and `steps` are checked on their own; `output` and `solver` may change
     /// between a run and its resumption.
     pub fingerprint: BTreeMap<String, String>,
+    /// The first non-finite value of a load expression met during the run (names its key).
+    pub load_watch: LoadWatch,
 }
 
 /// SHA-256 (hex) of the vertex coordinates, cells and boundary facets with their parts.
@@ -506,7 +509,10 @@ impl<const D: usize> ProblemSetup<D> {
             return Err(problem_error(
                 origin,
                 "final_time",
-                format!("must be a positive number, got {}", file.final_time),
+                format!(
+                    "must be a positive number, got {}",
+                    contact_input::number::short(file.final_time)
+                ),
             ));
         }
         if file.steps == 0 {
@@ -702,18 +708,25 @@ impl<const D: usize> ProblemSetup<D> {
             }
         }
 
+        let load_watch = LoadWatch::default();
         let body_force: Option<contact_damage::scheme::VectorField<D>> = body_force.map(|force| {
-            Arc::new(move |x: &[f64; D], t: f64| eval_vector(&force, &point_values(x, &[t])))
-                as contact_damage::scheme::VectorField<D>
+            let watch = load_watch.clone();
+            Arc::new(move |x: &[f64; D], t: f64| {
+                let value = eval_vector(&force, &point_values(x, &[t]));
+                watch.check("loads.body_force", "f0", value, x, t)
+            }) as contact_damage::scheme::VectorField<D>
         });
         let traction = traction.map(|traction| {
+            let watch = load_watch.clone();
             Arc::new(move |x: &[f64; D], t: f64, normal: &[f64; D]| {
                 let mut extra = [t, 0.0, 0.0, 0.0];
                 extra[1..1 + D].copy_from_slice(normal);
                 let factor = curve.as_ref().map_or(1.0, |curve| curve.factor(t));
-                eval_vector(&traction, &point_values(x, &extra)).map(|f| f * factor)
+                let value = eval_vector(&traction, &point_values(x, &extra)).map(|f| f * factor);
+                watch.check("loads.traction", "f2", value, x, t)
             }) as contact_damage::scheme::BoundaryVectorField<D>
         });
+        let gap_watch = load_watch.clone();
         let problem = Problem {
             mesh: Arc::new(mesh),
             degree: file.degree,
@@ -730,7 +743,10 @@ impl<const D: usize> ProblemSetup<D> {
                 contact_traction: None,
                 damage_supply: None,
                 damage_flux: None,
-                gap: Arc::new(move |x, t| gap.eval_f64(&point_values(x, &[t]))),
+                gap: Arc::new(move |x, t| {
+                    let value = gap.eval_f64(&point_values(x, &[t]));
+                    gap_watch.check("loads.gap", "g", [value], x, t)[0]
+                }),
                 dirichlet,
                 initial_displacement: Arc::new(move |x| {
                     eval_vector(&initial_displacement, &point_values(x, &[]))
@@ -754,6 +770,7 @@ impl<const D: usize> ProblemSetup<D> {
             pictures,
             fingerprint,
             file,
+            load_watch,
         })
     }
 

@@ -265,7 +265,7 @@ fn check_step_limit<const D: usize>(
         return Ok(limit);
     }
     let final_time = setup.problem.final_time;
-    let needed = (final_time / limit.time_step).ceil();
+    let needed = contact_input::number::short((final_time / limit.time_step).ceil());
     let (terms, remedy) = if limit.includes_contact {
         (
             "the elastic stress and the normal compliance p_ν",
@@ -280,8 +280,9 @@ fn check_step_limit<const D: usize>(
         )
     };
     Err(InputError::InvalidInput(format!(
-        "{}: the time step k = final_time/steps = {final_time}/{} = {step:e} exceeds the stability limit k_max = {:.3e} of the explicit terms of (5.1) ({terms} at u_(n−1); λ_max(H⁻¹B) = {:.3e} by {} power iterations): the run would oscillate or blow up; {remedy}",
+        "{}: the time step k = final_time/steps = {}/{} = {step:e} exceeds the stability limit k_max = {:.3e} of the explicit terms of (5.1) ({terms} at u_(n−1); λ_max(H⁻¹B) = {:.3e} by {} power iterations): the run would oscillate or blow up; {remedy}",
         setup.origin,
+        contact_input::number::short(final_time),
         simulation.steps(),
         limit.time_step,
         limit.largest_rate,
@@ -465,7 +466,9 @@ pub fn run<const D: usize>(
         );
     }
     while simulation.state().step < last_step {
-        let (velocity, damage, normal_pressure, friction_bound) = simulation.step()?;
+        let (velocity, damage, normal_pressure, friction_bound) = simulation
+            .step()
+            .map_err(|error| setup.load_watch.explain(&setup.origin, error.into()))?;
         let state = simulation.state();
         let n = state.step;
         max_kkt[0] = max_kkt[0].max(velocity.stats.kkt_residual);

@@ -297,3 +297,76 @@ fn step_above_the_stability_limit_is_refused_before_anything_is_written() {
     let output = simulate(&implicit, &dir.join("out-implicit"), &[]);
     assert!(output.status.success(), "{}", stderr(&output));
 }
+
+/// A load expression undefined at a time between the checks at load (t = 0, T/2, T) stops the
+/// run with the file, the key and the time, not with a degree of freedom of the solver
+/// (issue 13 item 7).
+#[test]
+fn a_load_undefined_at_one_time_names_its_key_and_the_time() {
+    let dir = scratch("hostile-load-nan");
+    let problem = small_problem(&dir);
+    let text = std::fs::read_to_string(&problem).unwrap();
+    for (key, from, to) in [
+        (
+            "loads.gap",
+            "gap = \"0.02*x\"",
+            "gap = \"0.02*x + 0/(t - 0.1)\"",
+        ),
+        (
+            "loads.traction",
+            "\"-pressure*max(0, ny)",
+            "\"-pressure*(1 + 0/(t - 0.1))*max(0, ny)",
+        ),
+    ] {
+        assert!(text.contains(from), "{from}");
+        let changed = dir.join("changed.toml");
+        std::fs::write(&changed, text.replace(from, to)).unwrap();
+        let output = simulate(&changed, &dir.join(format!("out-{key}")), &[]);
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(1), "{message}");
+        for part in [
+            changed.display().to_string(),
+            format!("key `{key}`"),
+            "t = 0.1".into(),
+        ] {
+            assert!(message.contains(&part), "`{part}` missing in {message}");
+        }
+    }
+}
+
+/// Huge numbers in messages are printed in scientific notation, not with 300 digits.
+#[test]
+fn a_huge_final_time_is_refused_in_a_short_message() {
+    let dir = scratch("hostile-huge-time");
+    let problem = small_problem(&dir);
+    let text = std::fs::read_to_string(&problem).unwrap();
+    std::fs::write(
+        &problem,
+        text.replace("final_time = 0.4", "final_time = 1e300"),
+    )
+    .unwrap();
+    let output = simulate(&problem, &dir.join("out"), &[]);
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(1), "{message}");
+    assert!(message.contains("1e300"), "{message}");
+    assert!(!message.contains("0000000000"), "{message}");
+}
+
+/// Resuming a run that already reached its last step says so instead of "steps 9..8".
+#[test]
+fn resuming_a_finished_run_says_there_is_nothing_to_do() {
+    let dir = scratch("hostile-resume-finished");
+    let problem = small_problem(&dir);
+    let out = dir.join("out");
+    assert!(simulate(&problem, &out, &[]).status.success());
+    let before = contents(&out);
+    let output = simulate(&problem, &out, &["--resume"]);
+    let printed = String::from_utf8_lossy(&output.stdout);
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(
+        printed.contains("nothing to do") && printed.contains("step 8"),
+        "{printed}"
+    );
+    assert!(!printed.contains("steps 9..8"), "{printed}");
+    assert_eq!(contents(&out), before);
+}

@@ -279,6 +279,19 @@ impl<const D: usize> Case<D> {
                 format!("need {D} coordinates each"),
             ));
         }
+        for axis in 0..D {
+            let (low, high) = (file.domain.lower[axis], file.domain.upper[axis]);
+            if !(low.is_finite() && high.is_finite() && low < high) {
+                return Err(case_error(
+                    origin,
+                    "domain.lower/upper",
+                    format!(
+                        "need finite coordinates with lower < upper, got lower = {:?}, upper = {:?}",
+                        file.domain.lower, file.domain.upper
+                    ),
+                ));
+            }
+        }
         let mut sides =
             parse_sides::<D>(FileKind::Case, origin, "domain.sides", &file.domain.sides)?;
         let parts: Vec<(String, Vec<String>)> = file
@@ -431,7 +444,7 @@ impl<const D: usize> Case<D> {
                 }
             }
             for &t in &times {
-                let at = || format!("at x = {x:?}, t = {t}");
+                let at = || format!("at x = {x:?}, t = {}", contact_input::number::short(t));
                 let beta = value(&self.exact.damage, &x, t);
                 if !(-1e-14..=1.0 + 1e-14).contains(&beta) || !beta.is_finite() {
                     return Err(case_error(

@@ -60,8 +60,8 @@ pub struct Cli {
     /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d, mild2d, strong2d, wear2d, carreau2d, implicit2d, loads2d, mild3d, strong3d, wear3d).
     #[arg(long)]
     pub case: Option<String>,
-    /// Use only the first (coarsest) N levels of every study.
-    #[arg(long)]
+    /// Use only the first (coarsest) N levels of every study (N ≥ 2: a rate needs two levels).
+    #[arg(long, value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(2..))]
     pub levels: Option<usize>,
     /// Which studies to run (comma-separated: h, k, diagonal).
     #[arg(long, value_delimiter = ',', default_value = "h,k,diagonal")]
@@ -295,11 +295,19 @@ pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
             .join(&name)
             .join(format!("l{}", cli.order))
     });
-    check_out(&out)?;
     let started = std::time::Instant::now();
+    // the case is validated before the output folder is created
     let studies = match dim {
-        2 => run_studies(&Case::<2>::new(file, &origin)?, &cli)?,
-        3 => run_studies(&Case::<3>::new(file, &origin)?, &cli)?,
+        2 => {
+            let case = Case::<2>::new(file, &origin)?;
+            check_out(&out)?;
+            run_studies(&case, &cli)?
+        }
+        3 => {
+            let case = Case::<3>::new(file, &origin)?;
+            check_out(&out)?;
+            run_studies(&case, &cli)?
+        }
         other => {
             return Err(VerifyError::InvalidInput(format!(
                 "{origin}: dim must be 2 or 3, got {other}"

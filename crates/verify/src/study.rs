@@ -278,10 +278,12 @@ pub fn run_one<const D: usize>(
     let k = simulation.time_step();
     let space = simulation.space().clone();
     let mut tracker = ErrorTracker::new(&space, reference, k, steps);
-    let summary = simulation.run(|report| {
-        tracker.observe(report.space, report.state);
-        Ok(())
-    })?;
+    let summary = simulation
+        .run(|report| {
+            tracker.observe(report.space, report.state);
+            Ok(())
+        })
+        .map_err(|error| explain_failure(case, &simulation, cells, error))?;
     let unknowns = simulation.velocity_operator().size();
     Ok(RunResult {
         cells,
@@ -302,11 +304,36 @@ pub fn reference_states<const D: usize>(
 ) -> Result<Vec<State>, VerifyError> {
     let mut simulation = Simulation::new(case.problem(cells, degree, steps)?)?;
     let mut states = vec![simulation.state().clone()];
-    simulation.run(|report| {
-        states.push(report.state.clone());
-        Ok(())
-    })?;
+    simulation
+        .run(|report| {
+            states.push(report.state.clone());
+            Ok(())
+        })
+        .map_err(|error| explain_failure(case, &simulation, cells, error))?;
     Ok(states)
+}
+
+/// A failed run of `simulation` whose time step lies above the stability limit of the explicit
+/// terms of (5.1) ([`contact_damage::stability`]) is reported as such, naming the case and the
+/// level; the solver's own error (typically a Newton or friction solve that no longer
+/// converges) follows as the symptom. Other failures pass unchanged.
+fn explain_failure<const D: usize>(
+    case: &Case<D>,
+    simulation: &Simulation<D>,
+    cells: usize,
+    error: contact_damage::Error,
+) -> VerifyError {
+    let step = simulation.time_step();
+    match simulation.step_limit() {
+        Ok(limit) if step > limit.time_step => VerifyError::InvalidInput(format!(
+            "case `{}`, level with {cells} cells and {} steps: the time step k = {step:.3e} exceeds the stability limit k_max = {:.3e} of the explicit terms of (5.1) (λ_max(H⁻¹B) = {:.3e}); lower `laws.contact.stiffness` or the elasticity against the viscosity, or take more steps (the solver stopped with: {error})",
+            case.origin,
+            simulation.steps(),
+            limit.time_step,
+            limit.largest_rate,
+        )),
+        _ => error.into(),
+    }
 }
 
 fn progress(total: usize, label: &str) -> ProgressBar {
