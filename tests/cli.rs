@@ -308,3 +308,32 @@ fn verify_names_the_stability_limit_when_a_stiff_case_fails() {
         assert!(stderr.contains(part), "`{part}` missing in {stderr}");
     }
 }
+
+/// A manufactured field with a pole inside the domain, or a displacement that vanishes, is an
+/// input error naming the key, not a FAIL verdict with errors of 10³ or NaN rates (issue 13
+/// item 5).
+#[test]
+fn verify_refuses_a_singular_or_vanishing_manufactured_displacement() {
+    let dir = scratch("singular");
+    let u =
+        "u = [\"0.05*x*y*(1+t) + 0.5*t*max(0, x - x_slip)^4*(1+y)\", \"-(0.1 + 0.1*t)*x^2*(1-y)\"]";
+    for (to, key, reason) in [
+        (
+            "u = [\"0.05*x*y*(1+t) + 0.5*t*max(0, x - x_slip)^4*(1+y)\", \"0.1*x/(y - 0.3)\"]",
+            "exact.u[1]",
+            "singular or not resolved",
+        ),
+        (
+            "u = [\"0\", \"0\"]",
+            "exact.u",
+            "vanishes at every sample point",
+        ),
+    ] {
+        let case = changed_zones2d(&dir, u, to);
+        let stderr = refused(&["--case", case.to_str().unwrap()], &dir.join("out"));
+        assert!(
+            stderr.contains("changed.toml") && stderr.contains(key) && stderr.contains(reason),
+            "{stderr}"
+        );
+    }
+}

@@ -391,7 +391,52 @@ impl<const D: usize> Case<D> {
             file,
         };
         case.check_samples()?;
+        case.check_smooth()?;
         Ok(case)
+    }
+
+    /// The manufactured u and β are smooth on the domain (no pole between sample points, see
+    /// [`crate::smoothness`]) and u does not vanish identically (the displacement and velocity
+    /// errors would then measure round-off, and their rates would be 0/0).
+    fn check_smooth(&self) -> Result<(), VerifyError> {
+        let (lower, upper) = (self.lower(), self.upper());
+        let per_axis: usize = if D == 2 { 25 } else { 11 };
+        let times = [0.0, 0.5 * self.file.final_time, self.file.final_time];
+        let fields = self
+            .exact
+            .displacement
+            .iter()
+            .enumerate()
+            .map(|(i, u)| (format!("exact.u[{i}]"), u))
+            .chain(std::iter::once((
+                "exact.beta".to_string(),
+                &self.exact.damage,
+            )));
+        for (key, field) in fields {
+            crate::smoothness::check_resolved(field, lower, upper, per_axis, &times)
+                .map_err(|message| case_error(&self.origin, &key, message))?;
+        }
+        let samples = 7usize.pow(D as u32);
+        let vanishes = (0..samples).all(|index| {
+            let x: [f64; D] = std::array::from_fn(|i| {
+                let step = index / 7usize.pow(i as u32) % 7;
+                lower[i] + (upper[i] - lower[i]) * (step as f64 + 0.5) / 7.0
+            });
+            times.iter().all(|&t| {
+                self.exact
+                    .displacement
+                    .iter()
+                    .all(|u| value(u, &x, t) == 0.0)
+            })
+        });
+        if vanishes {
+            return Err(case_error(
+                &self.origin,
+                "exact.u",
+                "the manufactured displacement vanishes at every sample point: the displacement and velocity errors would measure round-off only and their rates would be undefined; choose a nonzero u",
+            ));
+        }
+        Ok(())
     }
 
     fn lower(&self) -> [f64; D] {

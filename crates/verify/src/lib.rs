@@ -19,6 +19,7 @@ pub mod errors;
 pub mod manufactured;
 pub mod plot;
 pub mod report;
+pub mod smoothness;
 pub mod study;
 
 /// The error type of the harness: that of the input layer (case-file errors are
