@@ -337,3 +337,27 @@ fn verify_refuses_a_singular_or_vanishing_manufactured_displacement() {
         );
     }
 }
+
+/// Studies whose levels cannot fit in memory are refused before the first solve, with the
+/// estimate and the limit, never aborted in an allocation (issue 13 item 2).
+#[test]
+fn verify_refuses_studies_too_large_for_the_memory_before_solving() {
+    let dir = scratch("memory");
+    let case = changed_zones2d(
+        &dir,
+        "h = { cells = [4, 8, 16, 32]",
+        "h = { cells = [4, 8, 16, 1000000000]",
+    );
+    let stderr = refused(&["--case", case.to_str().unwrap()], &dir.join("out"));
+    assert!(
+        stderr.contains("h study") && stderr.contains("GiB") && stderr.contains("--memory-limit"),
+        "{stderr}"
+    );
+    let stderr = refused(&["--memory-limit", "0.0001"], &dir.join("out"));
+    assert!(
+        stderr.contains("MiB") && stderr.contains("above the limit"),
+        "{stderr}"
+    );
+    let stderr = refused(&["--memory-limit=-1"], &dir.join("out"));
+    assert!(stderr.contains("--memory-limit -1"), "{stderr}");
+}

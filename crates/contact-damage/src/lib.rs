@@ -68,6 +68,7 @@ pub mod gmsh;
 pub mod laws;
 pub mod linalg;
 pub mod loads;
+pub mod memory;
 pub mod mesh;
 pub mod obstacle;
 pub mod ordering;

@@ -24,6 +24,14 @@ use std::path::Path;
 /// Reads the problem file at `path`, builds it in its dimension and runs it.
 pub fn run_file(path: &Path, options: &run::RunOptions) -> Result<run::RunOutcome, InputError> {
     let file = problem::read_problem_file(path)?;
+    if let Some(box_file) = &file.mesh.box_mesh {
+        // before the mesh is built: a box of 10⁹ cells must not abort in an allocation
+        run::check_memory(
+            &path.display().to_string(),
+            contact_damage::memory::estimate_box(&box_file.cells, file.degree),
+            options,
+        )?;
+    }
     match file.dim {
         2 => run::run(&problem::ProblemSetup::<2>::new(file, path)?, options),
         3 => run::run(&problem::ProblemSetup::<3>::new(file, path)?, options),

@@ -36,6 +36,10 @@ struct Cli {
     /// Worker threads, 1 ..= 4 × the available cores (default: all cores).
     #[arg(long)]
     threads: Option<usize>,
+    /// Refuse problems whose estimated memory exceeds this many GiB (default: the physical
+    /// memory of the machine).
+    #[arg(long, value_name = "GiB")]
+    memory_limit: Option<f64>,
 }
 
 fn main() -> ExitCode {
@@ -43,6 +47,12 @@ fn main() -> ExitCode {
     if let Err(error) = contact_input::threads::set_threads(cli.threads) {
         eprintln!("simulate: {error}");
         return ExitCode::FAILURE;
+    }
+    if let Some(gib) = cli.memory_limit {
+        if !(gib.is_finite() && gib > 0.0) {
+            eprintln!("simulate: --memory-limit {gib}: must be a positive number of GiB");
+            return ExitCode::FAILURE;
+        }
     }
     let interrupt = Arc::new(AtomicBool::new(false));
     let flag = interrupt.clone();
@@ -64,6 +74,9 @@ fn main() -> ExitCode {
         until_step: cli.until_step,
         quiet: cli.quiet,
         interrupt: Some(interrupt),
+        memory_limit: cli
+            .memory_limit
+            .map(|gib| gib * contact_damage::memory::GIB),
     };
     match simulate::run_file(&cli.problem, &options) {
         Ok(outcome) if outcome.interrupted => {

@@ -74,6 +74,32 @@ pub struct RunOptions {
     /// Set from outside (the Ctrl-C handler of `simulate`) to stop the run after the step in
     /// progress: that step is saved like a saved step, so `--resume` continues from it.
     pub interrupt: Option<Arc<AtomicBool>>,
+    /// Largest estimated memory a run may need, in bytes (`--memory-limit`; default: the
+    /// physical memory, see [`contact_damage::memory`]).
+    pub memory_limit: Option<f64>,
+}
+
+impl RunOptions {
+    /// The memory limit in bytes.
+    pub fn memory_limit(&self) -> f64 {
+        self.memory_limit
+            .unwrap_or_else(contact_damage::memory::default_limit)
+    }
+}
+
+/// Refuses a problem whose estimated memory exceeds the limit, before the solver allocates.
+pub fn check_memory(
+    origin: &str,
+    estimate: contact_damage::memory::MemoryEstimate,
+    options: &RunOptions,
+) -> Result<(), InputError> {
+    contact_damage::memory::check(
+        estimate,
+        options.memory_limit(),
+        &format!("the problem of {origin}"),
+        "--memory-limit",
+    )
+    .map_err(InputError::from)
 }
 
 /// What a run did.
@@ -308,6 +334,15 @@ pub fn run<const D: usize>(
         // before anything is computed or written (see crate::folder)
         folder::check_fresh(&dir, &what, options.overwrite)?;
     }
+    check_memory(
+        &setup.origin,
+        contact_damage::memory::estimate(
+            D,
+            setup.problem.degree,
+            setup.problem.mesh.num_vertices() as f64,
+        ),
+        options,
+    )?;
     let mut simulation = Simulation::new(setup.problem.clone())?;
     let space = simulation.space().clone();
     let contact = simulation.contact().clone();

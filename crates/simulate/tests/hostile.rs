@@ -370,3 +370,32 @@ fn resuming_a_finished_run_says_there_is_nothing_to_do() {
     assert!(!printed.contains("steps 9..8"), "{printed}");
     assert_eq!(contents(&out), before);
 }
+
+/// A box of 10¹⁸ cells or a limit below the estimate is refused before the mesh is built, with
+/// the estimate and the limit (issue 13 item 2): no abort, no capacity-overflow panic.
+#[test]
+fn problems_too_large_for_the_memory_are_refused_before_allocating() {
+    let dir = scratch("hostile-memory");
+    let problem = small_problem(&dir);
+    let text = std::fs::read_to_string(&problem).unwrap();
+    let huge = dir.join("huge.toml");
+    std::fs::write(
+        &huge,
+        text.replace("cells = [8, 4]", "cells = [1000000000, 1000000000]"),
+    )
+    .unwrap();
+    for (file, flags) in [
+        (&huge, vec![]),
+        (&problem, vec!["--memory-limit", "0.000001"]),
+    ] {
+        let out = dir.join("out");
+        let output = simulate(file, &out, &flags);
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(1), "{message}");
+        assert!(
+            message.contains("needs an estimated") && message.contains("--memory-limit"),
+            "{message}"
+        );
+        assert!(!out.exists());
+    }
+}

@@ -72,6 +72,10 @@ pub struct Cli {
     /// Worker threads, 1 ..= 4 × the available cores (default: all cores).
     #[arg(long)]
     pub threads: Option<usize>,
+    /// Refuse studies whose estimated memory exceeds this many GiB (default: the physical
+    /// memory of the machine).
+    #[arg(long, value_name = "GiB")]
+    pub memory_limit: Option<f64>,
 }
 
 /// The names of `--studies`.
@@ -287,6 +291,15 @@ pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
     }
     set_threads(cli.threads)?;
     check_studies(&cli.studies)?;
+    let memory_limit = match cli.memory_limit {
+        None => contact_damage::memory::default_limit(),
+        Some(gib) if gib.is_finite() && gib > 0.0 => gib * contact_damage::memory::GIB,
+        Some(gib) => {
+            return Err(VerifyError::InvalidInput(format!(
+                "--memory-limit {gib}: must be a positive number of GiB"
+            )))
+        }
+    };
     let (file, origin) = load_case(&cli)?;
     let name = file.name.clone();
     let dim = file.dim;
@@ -300,11 +313,13 @@ pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
     let studies = match dim {
         2 => {
             let case = Case::<2>::new(file, &origin)?;
+            crate::budget::check_studies(&case, cli.order, &cli.studies, cli.levels, memory_limit)?;
             check_out(&out)?;
             run_studies(&case, &cli)?
         }
         3 => {
             let case = Case::<3>::new(file, &origin)?;
+            crate::budget::check_studies(&case, cli.order, &cli.studies, cli.levels, memory_limit)?;
             check_out(&out)?;
             run_studies(&case, &cli)?
         }

@@ -13,6 +13,7 @@
 //! - [`report`]: CSV, JSON and SVG reports;
 //! - [`cli`]: the `verify` command line.
 
+pub mod budget;
 pub mod case;
 pub mod cli;
 pub mod errors;
