@@ -9,6 +9,7 @@
 //! - [`output`]: atomic writing of output files (raw bytes, JSON, CSV), missing values;
 //! - [`threads`]: the `--threads` option;
 //! - [`number`]: numbers in messages, printed short;
+//! - [`mutation`]: hostile edits of input text for the parsers' robustness tests;
 //! - [`error`]: the error type, naming file, key or line; the file kind ("case" or
 //!   "problem file") is the caller's ([`FileKind`]).
 
@@ -16,6 +17,7 @@ pub mod error;
 pub mod expr;
 pub mod file;
 pub mod laws;
+pub mod mutation;
 pub mod number;
 pub mod output;
 pub mod scheme;
