@@ -153,15 +153,18 @@ fn barycentric<const D: usize>(xi: &[f64; D]) -> [f64; 4] {
 mod tests {
     use super::*;
 
-    /// Deterministic pseudo-random numbers in [0, 1) (64-bit LCG), enough for sampling points.
-    struct Lcg(u64);
-    impl Lcg {
+    /// Deterministic pseudo-random numbers in [0, 1) (proptest's ChaCha generator, seeded).
+    struct Points(proptest::test_runner::TestRng);
+    impl Points {
+        fn new(seed: u8) -> Self {
+            Self(proptest::test_runner::TestRng::from_seed(
+                proptest::test_runner::RngAlgorithm::ChaCha,
+                &[seed; 32],
+            ))
+        }
         fn next(&mut self) -> f64 {
-            self.0 = self
-                .0
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (self.0 >> 11) as f64 / (1u64 << 53) as f64
+            use proptest::prelude::RngExt;
+            self.0.random::<f64>()
         }
         /// A point of the reference simplex (possibly on its boundary region).
         fn point_in_simplex<const D: usize>(&mut self) -> [f64; D] {
@@ -201,7 +204,7 @@ mod tests {
     }
 
     fn check_partition_of_unity_and_gradient_sum<const D: usize>() {
-        let mut rng = Lcg(7);
+        let mut rng = Points::new(7);
         for element in elements::<D>() {
             let mut values = vec![0.0; element.num_nodes()];
             let mut gradients = vec![[0.0; D]; element.num_nodes()];
@@ -223,7 +226,7 @@ mod tests {
     }
 
     fn check_gradients_by_finite_differences<const D: usize>() {
-        let mut rng = Lcg(11);
+        let mut rng = Points::new(11);
         let step = 1e-6;
         for element in elements::<D>() {
             let n = element.num_nodes();
@@ -258,7 +261,7 @@ mod tests {
     /// that the interpolant and its gradient equal the polynomial and its gradient everywhere.
     #[allow(clippy::needless_range_loop)] // index notation of the quadratic form ξᵀAξ
     fn check_polynomial_reproduction<const D: usize>() {
-        let mut rng = Lcg(13);
+        let mut rng = Points::new(13);
         for element in elements::<D>() {
             // p(ξ) = c + b·ξ + (if P2) ξᵀ A ξ with A symmetric.
             let constant = rng.next() - 0.5;

@@ -10,7 +10,7 @@
 
 mod common;
 
-use common::{internal_force, regime_contact_data, Lcg, REGIMES};
+use common::{internal_force, regime_contact_data, Random, REGIMES};
 
 use contact_damage::contact::ContactNodes;
 use contact_damage::laws::{LinearViscosity, SaturatingViscosity, Viscosity};
@@ -45,7 +45,7 @@ fn prescribed_step(
     regime: usize,
     seed: u64,
 ) -> (f64, f64, f64) {
-    let mut rng = Lcg(seed);
+    let mut rng = Random::new(seed);
     let space = Arc::new(LagrangeSpace::new(Arc::new(square_two_grips(4)), degree).unwrap());
     let contact = Arc::new(ContactNodes::new(&space).unwrap());
     let n = space.num_nodes() * 2;

@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{regime_contact_data, Lcg, Regime, REGIMES};
+use common::{regime_contact_data, Random, Regime, REGIMES};
 
 use contact_damage::contact::{ContactNodes, ContactStatus};
 use contact_damage::damage::{assemble_damage_matrix, DamageOperator};
@@ -26,7 +26,7 @@ fn velocity_kkt<const D: usize>(
     regime: Regime,
     seed: u64,
 ) -> (f64, Vec<ContactStatus>) {
-    let mut rng = Lcg(seed);
+    let mut rng = Random::new(seed);
     let space = Arc::new(LagrangeSpace::new(Arc::new(mesh), degree).unwrap());
     let contact = Arc::new(ContactNodes::new(&space).unwrap());
     let law = Arc::new(LinearViscosity {
@@ -133,7 +133,7 @@ proptest! {
 
     #[test]
     fn damage_step_satisfies_kkt(seed in any::<u64>(), degree in 1usize..=2, amplitude in 0.1f64..50.0) {
-        let mut rng = Lcg(seed);
+        let mut rng = Random::new(seed);
         let space = Arc::new(LagrangeSpace::new(Arc::new(common::square(5)), degree).unwrap());
         let time_step = 0.1;
         let mut operator = DamageOperator::new(space.clone(), 0.05, time_step, BoxQpSettings::default()).unwrap();
@@ -193,7 +193,7 @@ fn velocity_step_with_nonlinear_viscosity_satisfies_kkt() {
         rate_scale: 0.01,
     });
     let mut operator = VelocityOperator::new(space.clone(), law, contact.clone()).unwrap();
-    let mut rng = Lcg(11);
+    let mut rng = Random::new(11);
     let n = space.num_nodes() * 2;
     let load: Vec<f64> = (0..n).map(|_| 0.05 * rng.symmetric()).collect();
     let (pressure, bound): (Vec<f64>, Vec<f64>) = (0..contact.len())

@@ -12,7 +12,7 @@
 
 mod common;
 
-use common::{internal_force, regime_contact_data, Lcg, Regime, REGIMES};
+use common::{internal_force, regime_contact_data, Random, Regime, REGIMES};
 
 use contact_damage::contact::{ContactNodes, ContactStatus};
 use contact_damage::laws::{LinearViscosity, SaturatingViscosity};
@@ -59,7 +59,7 @@ fn solve_random<const D: usize>(
     seed: u64,
     start_size: f64,
 ) -> Outcome {
-    let mut rng = Lcg(seed);
+    let mut rng = Random::new(seed);
     let space = Arc::new(LagrangeSpace::new(Arc::new(mesh), degree).unwrap());
     let contact = Arc::new(ContactNodes::new(&space).unwrap());
     let mut operator =
@@ -190,7 +190,8 @@ proptest! {
 
 /// On a smooth case (no contact, so (5.1) is a smooth strongly convex minimization) the
 /// residual ratios r_{k+1}/r_k of the Newton phase tend to 0: each of the last three is below
-/// the one before and the last is below 1e-2 (a linearly convergent method keeps a fixed ratio).
+/// the one before and the last is below 1e-2 (a linearly convergent method keeps a fixed ratio),
+/// among the residuals above the round-off floor.
 #[test]
 fn nonlinear_velocity_step_converges_superlinearly() {
     let outcome = solve_random(
@@ -201,7 +202,14 @@ fn nonlinear_velocity_step_converges_superlinearly() {
         3,
         1.0,
     );
-    let history = &outcome.history;
+    // residuals at the round-off floor (≤ 1e-12, a hundred times the unit round-off times the
+    // condition of the step) carry no information on the rate: their ratios are noise
+    let history: Vec<f64> = outcome
+        .history
+        .iter()
+        .copied()
+        .filter(|&residual| residual > 1e-12)
+        .collect();
     assert!(
         history.len() >= 4,
         "too few iterations to judge: {history:?}"

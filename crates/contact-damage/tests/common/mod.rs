@@ -127,17 +127,23 @@ pub fn distorted<const D: usize>(mesh: &Mesh<D>, spacing: f64, amount: f64) -> M
     Mesh::new(vertices, cells, facets, parts).unwrap()
 }
 
-/// A seeded linear congruential generator: deterministic random data for the solver tests.
-pub struct Lcg(pub u64);
+/// Deterministic random data for the solver tests: proptest's ChaCha generator, seeded.
+pub struct Random(proptest::test_runner::TestRng);
 
-impl Lcg {
+impl Random {
+    /// The generator of `seed`.
+    pub fn new(seed: u64) -> Self {
+        let mut bytes = [0u8; 32];
+        bytes[..8].copy_from_slice(&seed.to_le_bytes());
+        Self(proptest::test_runner::TestRng::from_seed(
+            proptest::test_runner::RngAlgorithm::ChaCha,
+            &bytes,
+        ))
+    }
     /// Uniform in [0, 1).
     pub fn next(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 11) as f64) / ((1u64 << 53) as f64)
+        use proptest::prelude::RngExt;
+        self.0.random::<f64>()
     }
     /// Uniform in [−1, 1).
     pub fn symmetric(&mut self) -> f64 {
@@ -168,7 +174,7 @@ pub const REGIMES: [Regime; 4] = [
 
 /// Normal pressure and friction bound per contact node that realize `regime` for the random
 /// loads of size 0.05 of the solver tests.
-pub fn regime_contact_data(regime: Regime, count: usize, rng: &mut Lcg) -> (Vec<f64>, Vec<f64>) {
+pub fn regime_contact_data(regime: Regime, count: usize, rng: &mut Random) -> (Vec<f64>, Vec<f64>) {
     (0..count)
         .map(|k| match regime {
             Regime::NoContact => (0.0, 0.0),
