@@ -8,7 +8,7 @@
 //! [`Mesh::box_mesh`] builds Kuhn (Freudenthal) triangulations of boxes.
 
 use std::collections::HashMap;
-use std::hash::{BuildHasherDefault, Hasher};
+use std::hash::Hasher;
 
 use nalgebra::SMatrix;
 
@@ -722,42 +722,8 @@ fn kuhn_permutations(n: usize) -> Vec<(Vec<usize>, i8)> {
     out
 }
 
-/// Fast non-cryptographic hasher for face keys (multiply–rotate accumulation with a
-/// SplitMix64 finalizer, so that hashbrown's low-bit bucket index is well mixed).
-#[derive(Default, Clone, Copy)]
-struct FastHasher {
-    state: u64,
-}
-
-impl Hasher for FastHasher {
-    fn write(&mut self, bytes: &[u8]) {
-        let mut chunks = bytes.chunks_exact(8);
-        for chunk in &mut chunks {
-            let word = u64::from_le_bytes(chunk.try_into().expect("chunk of 8 bytes"));
-            self.write_u64(word);
-        }
-        for &byte in chunks.remainder() {
-            self.write_u64(byte as u64);
-        }
-    }
-
-    fn write_u64(&mut self, word: u64) {
-        self.state = (self.state.rotate_left(5) ^ word).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
-    }
-
-    fn write_usize(&mut self, word: usize) {
-        self.write_u64(word as u64);
-    }
-
-    fn finish(&self) -> u64 {
-        let mut z = self.state.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-}
-
-type FastBuildHasher = BuildHasherDefault<FastHasher>;
+/// Fast non-cryptographic hasher for face keys (rustc's Fx hash).
+type FastBuildHasher = rustc_hash::FxBuildHasher;
 
 #[cfg(test)]
 mod tests {
