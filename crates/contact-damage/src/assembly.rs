@@ -72,7 +72,7 @@ pub fn viscous_element_matrix<const D: usize>(
     out.fill(0.0);
     let geometry = space.geometry(cell);
     let nodes = space.cell_nodes(cell);
-    let mut grads = [SVector::<f64, D>::zeros(); 10];
+    let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
     for q in 0..tabulation.len() {
         physical_gradients(geometry, tabulation, q, &mut grads);
         let rate = match velocity {
@@ -108,7 +108,7 @@ pub fn damage_element_matrix<const D: usize>(
     let n = tabulation.nodes;
     out.fill(0.0);
     let geometry = space.geometry(cell);
-    let mut grads = [SVector::<f64, D>::zeros(); 10];
+    let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
     for q in 0..tabulation.len() {
         physical_gradients(geometry, tabulation, q, &mut grads);
         let weight = tabulation.weights[q] * geometry.det;
@@ -172,7 +172,7 @@ impl<const D: usize> FacetPoints<D> {
         let mesh = space.mesh();
         let element = space.element();
         let n = element.num_nodes();
-        let mut values = [0.0; 10];
+        let mut values = [0.0; crate::element::MAX_CELL_NODES];
         let mut facets = Self::default();
         for f in (0..mesh.num_facets()).filter(|&f| select(f)) {
             let cell = mesh.facet_cell(f);

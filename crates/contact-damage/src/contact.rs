@@ -71,7 +71,7 @@ impl<const D: usize> ContactNodes<D> {
         let rule = FacetRule::new(D, space.degree());
         let element = space.element();
         let n = element.num_nodes();
-        let mut values = [0.0; 10];
+        let mut values = [0.0; crate::element::MAX_CELL_NODES];
         for f in 0..mesh.num_facets() {
             if mesh.facet_part(f) != BoundaryPart::Contact {
                 continue;

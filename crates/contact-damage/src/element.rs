@@ -24,6 +24,10 @@ pub fn simplex_edges(dim: usize) -> &'static [[usize; 2]] {
     }
 }
 
+/// The most nodes a cell has: 10, those of the P2 tetrahedron. Per-cell scratch arrays of
+/// values and gradients are this long.
+pub const MAX_CELL_NODES: usize = 10;
+
 /// Continuous Lagrange element of degree 1 or 2 on the reference simplex of dimension D.
 ///
 /// Node order: vertices first (0, e_1, …, e_D), then, for P2, the edge midpoints in

@@ -80,6 +80,12 @@ pub mod velocity;
 pub mod vtk;
 
 pub use error::{Error, Result};
+pub use mesh::{BoundaryPart, Mesh};
+pub use scheme::{
+    ContactTreatment, DamageEvolution, Data, Model, Problem, RunSummary, SchemeSettings,
+    Simulation, State, StepReport,
+};
+pub use space::LagrangeSpace;
 
 /// The code blocks of the README run as doctests.
 #[cfg(doctest)]

@@ -115,7 +115,7 @@ impl<const D: usize> LoadQuadrature<D> {
                     supply = vec![0.0; points.len()];
                     q.evaluate(points, time, &mut supply);
                 }
-                let mut grads = [SVector::<f64, D>::zeros(); 10];
+                let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
                 for (c, out) in out.chunks_mut(local).enumerate() {
                     let cell = first + c;
                     let geometry = space.geometry(cell);

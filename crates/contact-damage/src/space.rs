@@ -294,8 +294,8 @@ impl<const D: usize> LagrangeSpace<D> {
     /// given nodal values.
     pub fn eval_scalar(&self, c: usize, xi: &[f64; D], nodal: &[f64]) -> (f64, SVector<f64, D>) {
         let n = self.element.num_nodes();
-        let mut values = [0.0; 10];
-        let mut grads = [[0.0; D]; 10];
+        let mut values = [0.0; crate::element::MAX_CELL_NODES];
+        let mut grads = [[0.0; D]; crate::element::MAX_CELL_NODES];
         self.element.values(xi, &mut values[..n]);
         self.element.gradients(xi, &mut grads[..n]);
         let geom = &self.geometry[c];
@@ -317,8 +317,8 @@ impl<const D: usize> LagrangeSpace<D> {
         nodal: &[f64],
     ) -> (SVector<f64, D>, SMatrix<f64, D, D>) {
         let n = self.element.num_nodes();
-        let mut values = [0.0; 10];
-        let mut grads = [[0.0; D]; 10];
+        let mut values = [0.0; crate::element::MAX_CELL_NODES];
+        let mut grads = [[0.0; D]; crate::element::MAX_CELL_NODES];
         self.element.values(xi, &mut values[..n]);
         self.element.gradients(xi, &mut grads[..n]);
         let geom = &self.geometry[c];

@@ -89,7 +89,7 @@ pub fn step_limit<const D: usize>(
             out.fill(0.0);
             let geometry = space.geometry(cell);
             let nodes = space.cell_nodes(cell);
-            let mut grads = [SVector::<f64, D>::zeros(); 10];
+            let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
             for q in 0..tabulation.len() {
                 physical_gradients(geometry, &tabulation, q, &mut grads);
                 let strain = field_strain(nodes, &grads[..n], x);

@@ -483,7 +483,7 @@ impl<const D: usize> VelocityOperator<D> {
             .for_each(|(out, &cell)| {
                 let geometry = self.space.geometry(cell);
                 let nodes = self.space.cell_nodes(cell);
-                let mut grads = [SVector::<f64, D>::zeros(); 10];
+                let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
                 for q in 0..tab.len() {
                     crate::assembly::physical_gradients(geometry, tab, q, &mut grads);
                     let rate =
@@ -629,7 +629,7 @@ impl<const D: usize> VelocityOperator<D> {
             .for_each(|(cell, out)| {
                 let geometry = self.space.geometry(cell);
                 let nodes = self.space.cell_nodes(cell);
-                let mut grads = [SVector::<f64, D>::zeros(); 10];
+                let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
                 for q in 0..tab.len() {
                     crate::assembly::physical_gradients(geometry, tab, q, &mut grads);
                     let rate = crate::assembly::field_strain(nodes, &grads[..n], &cartesian);

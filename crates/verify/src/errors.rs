@@ -218,7 +218,8 @@ impl<const D: usize> ErrorTracker<D> {
                     });
                 }
                 let mut local = [0.0; 5];
-                let mut grads = [SVector::<f64, D>::zeros(); 10];
+                let mut grads =
+                    [SVector::<f64, D>::zeros(); contact_damage::element::MAX_CELL_NODES];
                 for c in 0..cells {
                     let cell = first_cell + c;
                     let geometry = space.geometry(cell);
