@@ -14,7 +14,9 @@ pub mod folder;
 pub mod history;
 pub mod pictures;
 pub mod problem;
+pub mod resume;
 pub mod run;
+pub mod snapshot;
 pub mod watch;
 pub mod zone;
 

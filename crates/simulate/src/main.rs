@@ -102,8 +102,8 @@ fn main() -> ExitCode {
                 outcome.started_from + 1,
                 outcome.last_step,
                 outcome.seconds,
-                outcome.max_kkt[0],
-                outcome.max_kkt[1],
+                outcome.max_kkt.velocity,
+                outcome.max_kkt.damage,
                 outcome.output_dir.display()
             );
             ExitCode::SUCCESS

@@ -35,19 +35,18 @@ use crate::pictures::{
     CONTACT_HISTORY_HEADER, CONTACT_HISTORY_PICTURE,
 };
 use crate::problem::ProblemSetup;
-use crate::zone::{boundary_penetration, contact_force, contact_zone};
-use contact_damage::contact::ContactStatus;
-use contact_damage::laws::Tensor;
-use contact_damage::mesh::BoundaryPart;
+use crate::resume::resume;
+pub use crate::resume::{read_saved_state, SavedState};
+pub use crate::snapshot::{cell_stress, contact_file, solution_file};
+use crate::snapshot::{save_step, SavedStep};
+use crate::zone::{boundary_penetration, contact_force, contact_zone, ContactZone};
+use contact_damage::contact::ContactNodes;
 use contact_damage::quadrature::QuadratureRule;
-use contact_damage::scheme::{ContactTreatment, DamageEvolution, Simulation, State};
-use contact_damage::space::{strain, LagrangeSpace, Tabulation};
+use contact_damage::scheme::{ContactTreatment, DamageEvolution, Simulation};
+use contact_damage::space::Tabulation;
 use contact_damage::stability::StepLimit;
-use contact_damage::vtk::{write_boundary_vtu, write_pvd, write_vtu, CellData, PointData};
-use contact_input::output::{write_atomic, write_json_atomic};
+use contact_input::output::write_atomic;
 use contact_input::InputError;
-use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
 use std::fs::OpenOptions;
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -102,6 +101,15 @@ pub fn check_memory(
     .map_err(InputError::from)
 }
 
+/// Largest KKT residuals of the velocity steps (5.1) and damage steps (5.2) of a run.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct MaxKkt {
+    /// Of the velocity steps (5.1).
+    pub velocity: f64,
+    /// Of the damage steps (5.2).
+    pub damage: f64,
+}
+
 /// What a run did.
 #[derive(Debug, Clone)]
 pub struct RunOutcome {
@@ -113,162 +121,17 @@ pub struct RunOutcome {
     pub last_step: usize,
     /// Steps saved so far (over all runs in this folder).
     pub saved_steps: Vec<usize>,
-    /// Largest velocity and damage KKT residuals of the steps done by this run.
-    pub max_kkt: [f64; 2],
+    /// Largest KKT residuals of the steps done by this run.
+    pub max_kkt: MaxKkt,
     /// Wall time of the time loop in seconds.
     pub seconds: f64,
     /// The run stopped early because [`RunOptions::interrupt`] was set.
     pub interrupted: bool,
 }
 
-/// The restart file: the state after a saved step and what it belongs to.
-#[derive(Debug, Clone, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SavedState {
-    /// Problem name.
-    pub name: String,
-    /// d.
-    pub dim: usize,
-    /// l.
-    pub degree: usize,
-    /// N.
-    pub steps: usize,
-    /// T.
-    pub final_time: f64,
-    /// Number of space nodes.
-    pub nodes: usize,
-    /// Steps saved so far (the PVD entries).
-    pub saved_steps: Vec<usize>,
-    /// n.
-    pub step: usize,
-    /// t_n.
-    pub time: f64,
-    /// u_n, node-major.
-    pub displacement: Vec<f64>,
-    /// v_n, node-major.
-    pub velocity: Vec<f64>,
-    /// β_n.
-    pub damage: Vec<f64>,
-    /// Σ_{m ≤ n} k |v_{m,τ}(a)| per contact node (see [`crate::history`]).
-    pub accumulated_slip: Vec<f64>,
-    /// Σ_{m ≤ n} k j(u_{m−1}, v_m).
-    pub friction_dissipation: f64,
-    /// Σ_{m ≤ n} k ∫_Ω 𝒜ε(v_m)·ε(v_m).
-    pub viscous_dissipation: f64,
-    /// [`ProblemSetup::fingerprint`] of the problem that was run.
-    pub fingerprint: BTreeMap<String, String>,
-}
-
-/// File name of the domain VTU of step n.
-pub fn solution_file(step: usize) -> String {
-    format!("solution_{step:06}.vtu")
-}
-
-/// File name of the Γ3 VTU of step n.
-pub fn contact_file(step: usize) -> String {
-    format!("contact_{step:06}.vtu")
-}
-
-/// Cell stress σ = 𝒜ε(v) + G(ε(u), β) (2.1) at the centroid of every cell, row-major D×D.
-pub fn cell_stress<const D: usize>(
-    setup: &ProblemSetup<D>,
-    space: &LagrangeSpace<D>,
-    state: &State,
-) -> Vec<f64> {
-    let model = &setup.problem.model;
-    let centroid = [1.0 / (D as f64 + 1.0); D];
-    let cells = space.mesh().num_cells();
-    let mut stress = Vec::with_capacity(cells * D * D);
-    for c in 0..cells {
-        let (_, velocity_gradient) = space.eval_vector(c, &centroid, &state.velocity);
-        let (_, displacement_gradient) = space.eval_vector(c, &centroid, &state.displacement);
-        let (damage, _) = space.eval_scalar(c, &centroid, &state.damage);
-        let sigma: Tensor<D> = model.viscosity.stress(&strain(&velocity_gradient))
-            + model
-                .elasticity
-                .stress(&strain(&displacement_gradient), damage);
-        for i in 0..D {
-            for j in 0..D {
-                stress.push(sigma[(i, j)]);
-            }
-        }
-    }
-    stress
-}
-
 fn io_error(action: &'static str, path: &Path) -> impl FnOnce(std::io::Error) -> InputError {
     let path = path.to_path_buf();
     move |e| InputError::io(action, path, e)
-}
-
-/// Checks the values of a saved state as strictly as an input file: fields of the right
-/// lengths, finite, β_n ∈ [0, 1] (the scheme's 𝒦^h), nonnegative running sums and slips, and
-/// saved steps strictly increasing. The error names the file, the field and the first bad entry.
-fn check_saved_values<const D: usize>(saved: &SavedState, path: &Path) -> Result<(), InputError> {
-    let bad = |field: &str, detail: String| {
-        InputError::InvalidInput(format!("{}: `{field}` {detail}", path.display()))
-    };
-    for (field, values, length) in [
-        ("displacement", &saved.displacement, saved.nodes * D),
-        ("velocity", &saved.velocity, saved.nodes * D),
-        ("damage", &saved.damage, saved.nodes),
-    ] {
-        if values.len() != length {
-            return Err(bad(
-                field,
-                format!("has {} values, expected {length}", values.len()),
-            ));
-        }
-        if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-            return Err(bad(field, format!("[{i}] = {} is not finite", values[i])));
-        }
-    }
-    if let Some(i) = saved.damage.iter().position(|b| !(0.0..=1.0).contains(b)) {
-        return Err(bad(
-            "damage",
-            format!("[{i}] = {} lies outside [0, 1]", saved.damage[i]),
-        ));
-    }
-    if let Some(i) = saved
-        .accumulated_slip
-        .iter()
-        .position(|s| !(s.is_finite() && *s >= 0.0))
-    {
-        return Err(bad(
-            "accumulated_slip",
-            format!(
-                "[{i}] = {} must be finite and ≥ 0",
-                saved.accumulated_slip[i]
-            ),
-        ));
-    }
-    for (field, value) in [
-        ("friction_dissipation", saved.friction_dissipation),
-        ("viscous_dissipation", saved.viscous_dissipation),
-    ] {
-        if !(value.is_finite() && value >= 0.0) {
-            return Err(bad(field, format!("= {value} must be finite and ≥ 0")));
-        }
-    }
-    if let Some(i) = saved.saved_steps.windows(2).position(|w| w[0] >= w[1]) {
-        return Err(bad(
-            "saved_steps",
-            format!(
-                "must increase strictly: {} then {}",
-                saved.saved_steps[i],
-                saved.saved_steps[i + 1]
-            ),
-        ));
-    }
-    Ok(())
-}
-
-/// Reads `state.json` of a folder.
-pub fn read_saved_state(dir: &Path) -> Result<SavedState, InputError> {
-    let path = dir.join(STATE_FILE);
-    let text = std::fs::read_to_string(&path).map_err(io_error("reading saved state", &path))?;
-    serde_json::from_str(&text)
-        .map_err(|e| InputError::InvalidInput(format!("{}: {e}", path.display())))
 }
 
 /// Whether step n has rows in `contact_history.csv`: every `output.every` steps and the last
@@ -316,6 +179,36 @@ fn check_step_limit<const D: usize>(
     )))
 }
 
+/// The contact zone of the step just done, measured on the penetration whose p_ν the step
+/// used: u_{n−1} − g(t_{n−1}) in (5.1), or u_n − g(t_n) with the implicit normal compliance.
+fn step_contact_zone<const D: usize>(
+    setup: &ProblemSetup<D>,
+    simulation: &Simulation<D>,
+    contact: &ContactNodes<D>,
+    axis: usize,
+) -> ContactZone {
+    let state = simulation.state();
+    let space = simulation.space();
+    let (pressed, gap_time) = if setup.problem.settings.contact == ContactTreatment::Implicit {
+        (state.displacement.clone(), state.time)
+    } else {
+        let k = simulation.time_step();
+        let previous: Vec<f64> = state
+            .displacement
+            .iter()
+            .zip(&state.velocity)
+            .map(|(u, v)| u - k * v)
+            .collect();
+        (previous, state.time - k)
+    };
+    let gap = &setup.problem.data.gap;
+    contact_zone(
+        space,
+        &boundary_penetration(space, contact, &pressed, |x| gap(x, gap_time)),
+        axis,
+    )
+}
+
 /// Runs the problem of `setup` with `options`; see the module documentation for the files.
 pub fn run<const D: usize>(
     setup: &ProblemSetup<D>,
@@ -347,107 +240,22 @@ pub fn run<const D: usize>(
     let space = simulation.space().clone();
     let contact = simulation.contact().clone();
     let steps = simulation.steps();
-    let state_path = dir.join(STATE_FILE);
     let history_path = dir.join(HISTORY_FILE);
     let contact_history_path = dir.join(CONTACT_HISTORY_FILE);
     let contact_line = ContactLine::new(&space, &contact);
     let pictures = picture_steps(&setup.pictures, simulation.time_step(), steps);
-    let invalid = |message: String| InputError::InvalidInput(message);
 
     let mut saved_steps = Vec::new();
     let mut sums = RunningSums::new(contact.len());
     let header = history_header(simulation.dirichlet_parts(), D);
     let step_limit;
     if options.resume {
-        let saved = read_saved_state(&dir)?;
-        let mismatch = |what: &str, saved_value: String, problem_value: String| {
-            invalid(format!(
-                "{} does not belong to {}: {what} is {saved_value} there but {problem_value} in the problem",
-                state_path.display(),
-                setup.origin
-            ))
-        };
-        if saved.dim != D {
-            return Err(mismatch("dim", saved.dim.to_string(), D.to_string()));
-        }
-        if saved.degree != setup.problem.degree {
-            return Err(mismatch(
-                "degree",
-                saved.degree.to_string(),
-                setup.problem.degree.to_string(),
-            ));
-        }
-        if saved.steps != steps {
-            return Err(mismatch(
-                "steps",
-                saved.steps.to_string(),
-                steps.to_string(),
-            ));
-        }
-        if saved.final_time.to_bits() != setup.problem.final_time.to_bits() {
-            return Err(mismatch(
-                "final_time",
-                saved.final_time.to_string(),
-                setup.problem.final_time.to_string(),
-            ));
-        }
-        if saved.nodes != space.num_nodes() {
-            return Err(mismatch(
-                "the number of nodes",
-                saved.nodes.to_string(),
-                space.num_nodes().to_string(),
-            ));
-        }
-        if saved.step > steps || saved.saved_steps.last() != Some(&saved.step) {
-            return Err(invalid(format!(
-                "{}: step {} is not the last saved step of a run of {steps} steps",
-                state_path.display(),
-                saved.step
-            )));
-        }
-        let keys = setup.fingerprint.keys().chain(saved.fingerprint.keys());
-        for key in keys {
-            if saved.fingerprint.get(key) != setup.fingerprint.get(key) {
-                return Err(invalid(format!(
-                    "{} does not belong to {}: `{key}` changed since the saved run (resume needs the same constants, laws, loads, mesh and scheme; start afresh with --overwrite)",
-                    state_path.display(),
-                    setup.origin
-                )));
-            }
-        }
-        if saved.accumulated_slip.len() != contact.len() {
-            return Err(mismatch(
-                "the number of contact nodes",
-                saved.accumulated_slip.len().to_string(),
-                contact.len().to_string(),
-            ));
-        }
-        let expected_time = saved.step as f64 * simulation.time_step();
-        if saved.time.to_bits() != expected_time.to_bits() {
-            return Err(mismatch(
-                "the time of the step",
-                saved.time.to_string(),
-                expected_time.to_string(),
-            ));
-        }
-        check_saved_values::<D>(&saved, &state_path)?;
-        folder::remove_stale_temporaries(&dir)?;
-        saved_steps = saved.saved_steps.clone();
-        sums = RunningSums {
-            accumulated_slip: saved.accumulated_slip,
-            friction_dissipation: saved.friction_dissipation,
-            viscous_dissipation: saved.viscous_dissipation,
-        };
-        simulation.set_state(State {
-            step: saved.step,
-            time: saved.time,
-            displacement: saved.displacement,
-            velocity: saved.velocity,
-            damage: saved.damage,
-        })?;
+        let resumed = resume(setup, &mut simulation, &dir, contact.len())?;
+        saved_steps = resumed.saved_steps;
+        sums = resumed.sums;
         step_limit = check_step_limit(setup, &simulation)?;
-        truncate_history(&history_path, saved.step, &header)?;
-        let recorded: Vec<usize> = (1..=saved.step)
+        truncate_history(&history_path, resumed.step, &header)?;
+        let recorded: Vec<usize> = (1..=resumed.step)
             .filter(|&n| records_contact_history(n, setup.every, steps))
             .collect();
         truncate_contact_history(&contact_history_path, &recorded, contact_line.indices.len())?;
@@ -479,7 +287,7 @@ pub fn run<const D: usize>(
     );
     let last_step = options.until_step.unwrap_or(steps).min(steps);
     let clock = Instant::now();
-    let mut max_kkt = [0.0f64; 2];
+    let mut max_kkt = MaxKkt::default();
     let mut force_cycle = ForceCycle::default();
     let damage_evolves = setup.problem.settings.damage_evolution == DamageEvolution::Parabolic;
     let mut interrupted = false;
@@ -506,8 +314,8 @@ pub fn run<const D: usize>(
             .map_err(|error| setup.load_watch.explain(&setup.origin, error.into()))?;
         let state = simulation.state();
         let n = state.step;
-        max_kkt[0] = max_kkt[0].max(velocity.stats.kkt_residual);
-        max_kkt[1] = max_kkt[1].max(damage.stats.kkt_residual);
+        max_kkt.velocity = max_kkt.velocity.max(velocity.stats.kkt_residual);
+        max_kkt.damage = max_kkt.damage.max(damage.stats.kkt_residual);
         let (mean_damage, area_damage_below_half) =
             damage_integrals(&space, &tabulation, &state.damage);
         let speed = tangential_speed(&contact, &state.velocity);
@@ -528,26 +336,7 @@ pub fn run<const D: usize>(
             &friction_bound,
             &velocity.multipliers,
         );
-        // the penetration whose p_ν the step used: u_{n−1} − g(t_{n−1}) (5.1), or
-        // u_n − g(t_n) (implicit)
-        let (pressed, gap_time) = if setup.problem.settings.contact == ContactTreatment::Implicit {
-            (state.displacement.clone(), state.time)
-        } else {
-            let k = simulation.time_step();
-            let previous: Vec<f64> = state
-                .displacement
-                .iter()
-                .zip(&state.velocity)
-                .map(|(u, v)| u - k * v)
-                .collect();
-            (previous, state.time - k)
-        };
-        let gap = &setup.problem.data.gap;
-        let zone = contact_zone(
-            &space,
-            &boundary_penetration(&space, &contact, &pressed, |x| gap(x, gap_time)),
-            contact_line.axis,
-        );
+        let zone = step_contact_zone(setup, &simulation, &contact, contact_line.axis);
         if let Some((low, high)) = force_cycle.push(on_contact.normal_force) {
             return Err(InputError::InvalidInput(format!(
                 "{}: the total normal contact force cycles with period two between {low:.6e} and {high:.6e} over steps {}..={n}, although every step is solved exactly: the step k = {:e} is above the stability limit of the explicit normal compliance for the contact state reached (the estimate at the start was {:.3e}); raise `steps` or use `[scheme] contact = \"implicit\"`",
@@ -627,107 +416,21 @@ pub fn run<const D: usize>(
             .as_ref()
             .is_some_and(|flag| flag.load(Ordering::SeqCst));
         if n % setup.every == 0 || n == steps || n == last_step || interrupted {
-            // Γ3 fields on all space nodes (zero off the contact nodes)
-            let nodes = space.num_nodes();
-            let mut status = vec![0.0; nodes];
-            let mut contact_node = vec![0.0; nodes];
-            let mut pressure = vec![0.0; nodes];
-            let mut tangential = vec![0.0; nodes * D];
-            for (k, &node) in contact.nodes.iter().enumerate() {
-                status[node] = match velocity.status[k] {
-                    ContactStatus::Separated => 0.0,
-                    ContactStatus::Stick => 1.0,
-                    ContactStatus::Slip => 2.0,
-                };
-                contact_node[node] = 1.0;
-                pressure[node] = normal_pressure[k];
-                for i in 0..D - 1 {
-                    let traction = -friction_bound[k] * velocity.multipliers[k * (D - 1) + i];
-                    for j in 0..D {
-                        tangential[node * D + j] += traction * contact.frames[k][(j, 1 + i)];
-                    }
-                }
-            }
-            let stress = cell_stress(setup, &space, state);
-            write_vtu(
-                &dir.join(solution_file(n)),
-                &space,
-                &[
-                    PointData::Vector {
-                        name: "displacement",
-                        values: &state.displacement,
-                    },
-                    PointData::Vector {
-                        name: "velocity",
-                        values: &state.velocity,
-                    },
-                    PointData::Scalar {
-                        name: "damage",
-                        values: &state.damage,
-                    },
-                ],
-                &[CellData::Tensor {
-                    name: "stress",
-                    values: &stress,
-                }],
-            )?;
-            write_boundary_vtu(
-                &dir.join(contact_file(n)),
-                &space,
-                BoundaryPart::Contact,
-                &[
-                    PointData::Scalar {
-                        name: "status",
-                        values: &status,
-                    },
-                    PointData::Scalar {
-                        name: "contact_node",
-                        values: &contact_node,
-                    },
-                    PointData::Scalar {
-                        name: "normal_pressure",
-                        values: &pressure,
-                    },
-                    PointData::Vector {
-                        name: "tangential_traction",
-                        values: &tangential,
-                    },
-                    PointData::Vector {
-                        name: "displacement",
-                        values: &state.displacement,
-                    },
-                ],
-            )?;
-            saved_steps.push(n);
-            let time_step = simulation.time_step();
-            let entries = |name: fn(usize) -> String| -> Vec<(f64, String)> {
-                saved_steps
-                    .iter()
-                    .map(|&s| (s as f64 * time_step, name(s)))
-                    .collect()
-            };
-            write_pvd(&dir.join("solution.pvd"), &entries(solution_file))?;
-            write_pvd(&dir.join("contact.pvd"), &entries(contact_file))?;
-            write_json_atomic(
-                &state_path,
-                &SavedState {
-                    name: setup.name.clone(),
-                    dim: D,
-                    degree: space.degree(),
+            save_step(
+                &dir,
+                &SavedStep {
+                    setup,
+                    space: &space,
+                    contact: &contact,
+                    state,
+                    velocity: &velocity,
+                    normal_pressure: &normal_pressure,
+                    friction_bound: &friction_bound,
+                    sums: &sums,
                     steps,
-                    final_time: setup.problem.final_time,
-                    nodes,
-                    saved_steps: saved_steps.clone(),
-                    step: n,
-                    time: state.time,
-                    displacement: state.displacement.clone(),
-                    velocity: state.velocity.clone(),
-                    damage: state.damage.clone(),
-                    accumulated_slip: sums.accumulated_slip.clone(),
-                    friction_dissipation: sums.friction_dissipation,
-                    viscous_dissipation: sums.viscous_dissipation,
-                    fingerprint: setup.fingerprint.clone(),
+                    time_step: simulation.time_step(),
                 },
+                &mut saved_steps,
             )?;
             if !options.quiet {
                 let elapsed = clock.elapsed().as_secs_f64();
@@ -779,38 +482,4 @@ pub fn run<const D: usize>(
         seconds: clock.elapsed().as_secs_f64(),
         interrupted,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::history::tests::{setup, unit_square_space};
-
-    #[test]
-    fn cell_stress_is_viscous_plus_damaged_elastic_stress() {
-        let setup = setup();
-        let space = unit_square_space(2);
-        // affine fields: ε(u) = [[0.1, 0.05], [0.05, -0.2]], ε(v) = [[0, 0.5], [0.5, 0.3]]
-        let state = State {
-            step: 0,
-            time: 0.0,
-            displacement: space.interpolate_vector(|x| [0.1 * x[0] + 0.1 * x[1], -0.2 * x[1]]),
-            velocity: space.interpolate_vector(|x| [x[1], 0.3 * x[1]]),
-            damage: vec![0.6; space.num_nodes()],
-        };
-        let stress = cell_stress(&setup, &space, &state);
-        let strain = Tensor::<2>::new(0.1, 0.05, 0.05, -0.2);
-        let rate = Tensor::<2>::new(0.0, 0.5, 0.5, 0.3);
-        let identity = Tensor::<2>::identity();
-        let expected = (rate * 2.0 * 0.5 + identity * 0.25 * rate.trace())
-            + (strain * 2.0 * 2.0 + identity * 3.0 * strain.trace()) * 0.6;
-        assert_eq!(stress.len(), space.mesh().num_cells() * 4);
-        for sigma in stress.chunks(4) {
-            for i in 0..2 {
-                for j in 0..2 {
-                    assert!((sigma[i * 2 + j] - expected[(i, j)]).abs() < 1e-13);
-                }
-            }
-        }
-    }
 }

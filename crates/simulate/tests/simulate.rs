@@ -71,7 +71,7 @@ fn output_is_read_back_with_fields_sizes_and_contact_status() {
     let outcome = simulate::run_file(&problem, &quiet(&out)).unwrap();
     assert_eq!(outcome.last_step, 12);
     assert_eq!(outcome.saved_steps, vec![4, 8, 12]);
-    assert!(outcome.max_kkt[0] <= 1e-10 && outcome.max_kkt[1] <= 1e-12);
+    assert!(outcome.max_kkt.velocity <= 1e-10 && outcome.max_kkt.damage <= 1e-12);
 
     // 8 × 4 squares, two triangles each; P1 nodes on a 9 × 5 lattice; 9 nodes on y = 0, of
     // which the clamped corner is no contact node

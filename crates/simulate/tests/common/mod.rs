@@ -70,7 +70,7 @@ pub fn checked_run<const D: usize>(
     .unwrap();
     assert_eq!(outcome.last_step, until);
     assert!(
-        outcome.max_kkt[0] < 1e-9 && outcome.max_kkt[1] < 1e-9,
+        outcome.max_kkt.velocity < 1e-9 && outcome.max_kkt.damage < 1e-9,
         "KKT residuals {:?}",
         outcome.max_kkt
     );

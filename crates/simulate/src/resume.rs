@@ -1,0 +1,239 @@
+//! Resuming a run from `state.json`: the restart file, and the checks that it belongs to the
+//! problem and holds admissible values before the time loop continues from it.
+
+use crate::folder;
+use crate::history::RunningSums;
+use crate::problem::ProblemSetup;
+use crate::run::STATE_FILE;
+use contact_damage::scheme::{Simulation, State};
+use contact_input::InputError;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// The restart file: the state after a saved step and what it belongs to.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SavedState {
+    /// Problem name.
+    pub name: String,
+    /// d.
+    pub dim: usize,
+    /// l.
+    pub degree: usize,
+    /// N.
+    pub steps: usize,
+    /// T.
+    pub final_time: f64,
+    /// Number of space nodes.
+    pub nodes: usize,
+    /// Steps saved so far (the PVD entries).
+    pub saved_steps: Vec<usize>,
+    /// n.
+    pub step: usize,
+    /// t_n.
+    pub time: f64,
+    /// u_n, node-major.
+    pub displacement: Vec<f64>,
+    /// v_n, node-major.
+    pub velocity: Vec<f64>,
+    /// β_n.
+    pub damage: Vec<f64>,
+    /// Σ_{m ≤ n} k |v_{m,τ}(a)| per contact node (see [`crate::history`]).
+    pub accumulated_slip: Vec<f64>,
+    /// Σ_{m ≤ n} k j(u_{m−1}, v_m).
+    pub friction_dissipation: f64,
+    /// Σ_{m ≤ n} k ∫_Ω 𝒜ε(v_m)·ε(v_m).
+    pub viscous_dissipation: f64,
+    /// [`ProblemSetup::fingerprint`] of the problem that was run.
+    pub fingerprint: BTreeMap<String, String>,
+}
+
+/// Checks the values of a saved state as strictly as an input file: fields of the right
+/// lengths, finite, β_n ∈ [0, 1] (the scheme's 𝒦^h), nonnegative running sums and slips, and
+/// saved steps strictly increasing. The error names the file, the field and the first bad entry.
+fn check_saved_values<const D: usize>(saved: &SavedState, path: &Path) -> Result<(), InputError> {
+    let bad = |field: &str, detail: String| {
+        InputError::InvalidInput(format!("{}: `{field}` {detail}", path.display()))
+    };
+    for (field, values, length) in [
+        ("displacement", &saved.displacement, saved.nodes * D),
+        ("velocity", &saved.velocity, saved.nodes * D),
+        ("damage", &saved.damage, saved.nodes),
+    ] {
+        if values.len() != length {
+            return Err(bad(
+                field,
+                format!("has {} values, expected {length}", values.len()),
+            ));
+        }
+        if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+            return Err(bad(field, format!("[{i}] = {} is not finite", values[i])));
+        }
+    }
+    if let Some(i) = saved.damage.iter().position(|b| !(0.0..=1.0).contains(b)) {
+        return Err(bad(
+            "damage",
+            format!("[{i}] = {} lies outside [0, 1]", saved.damage[i]),
+        ));
+    }
+    if let Some(i) = saved
+        .accumulated_slip
+        .iter()
+        .position(|s| !(s.is_finite() && *s >= 0.0))
+    {
+        return Err(bad(
+            "accumulated_slip",
+            format!(
+                "[{i}] = {} must be finite and ≥ 0",
+                saved.accumulated_slip[i]
+            ),
+        ));
+    }
+    for (field, value) in [
+        ("friction_dissipation", saved.friction_dissipation),
+        ("viscous_dissipation", saved.viscous_dissipation),
+    ] {
+        if !(value.is_finite() && value >= 0.0) {
+            return Err(bad(field, format!("= {value} must be finite and ≥ 0")));
+        }
+    }
+    if let Some(i) = saved.saved_steps.windows(2).position(|w| w[0] >= w[1]) {
+        return Err(bad(
+            "saved_steps",
+            format!(
+                "must increase strictly: {} then {}",
+                saved.saved_steps[i],
+                saved.saved_steps[i + 1]
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// Reads `state.json` of a folder.
+pub fn read_saved_state(dir: &Path) -> Result<SavedState, InputError> {
+    let path = dir.join(STATE_FILE);
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| InputError::io("reading saved state", &path, e))?;
+    serde_json::from_str(&text)
+        .map_err(|e| InputError::InvalidInput(format!("{}: {e}", path.display())))
+}
+
+/// What a resumed run continues from.
+pub(crate) struct Resumed {
+    /// Steps saved so far (the PVD entries).
+    pub saved_steps: Vec<usize>,
+    /// The running sums of the history at the saved step.
+    pub sums: RunningSums,
+    /// The saved step n.
+    pub step: usize,
+}
+
+/// Reads `state.json` of `dir`, checks that it belongs to `setup` (dimension, degree, N, T,
+/// nodes, contact nodes, the time of the step, the fingerprint of constants, laws, loads, mesh
+/// and scheme) and that its values are admissible, removes the temporaries a killed run left,
+/// and sets the state of `simulation` to the saved one.
+pub(crate) fn resume<const D: usize>(
+    setup: &ProblemSetup<D>,
+    simulation: &mut Simulation<D>,
+    dir: &Path,
+    contact_nodes: usize,
+) -> Result<Resumed, InputError> {
+    let state_path = dir.join(STATE_FILE);
+    let space = simulation.space().clone();
+    let steps = simulation.steps();
+    let invalid = |message: String| InputError::InvalidInput(message);
+    let saved = read_saved_state(dir)?;
+    let mismatch = |what: &str, saved_value: String, problem_value: String| {
+        invalid(format!(
+            "{} does not belong to {}: {what} is {saved_value} there but {problem_value} in the problem",
+            state_path.display(),
+            setup.origin
+        ))
+    };
+    if saved.dim != D {
+        return Err(mismatch("dim", saved.dim.to_string(), D.to_string()));
+    }
+    if saved.degree != setup.problem.degree {
+        return Err(mismatch(
+            "degree",
+            saved.degree.to_string(),
+            setup.problem.degree.to_string(),
+        ));
+    }
+    if saved.steps != steps {
+        return Err(mismatch(
+            "steps",
+            saved.steps.to_string(),
+            steps.to_string(),
+        ));
+    }
+    if saved.final_time.to_bits() != setup.problem.final_time.to_bits() {
+        return Err(mismatch(
+            "final_time",
+            saved.final_time.to_string(),
+            setup.problem.final_time.to_string(),
+        ));
+    }
+    if saved.nodes != space.num_nodes() {
+        return Err(mismatch(
+            "the number of nodes",
+            saved.nodes.to_string(),
+            space.num_nodes().to_string(),
+        ));
+    }
+    if saved.step > steps || saved.saved_steps.last() != Some(&saved.step) {
+        return Err(invalid(format!(
+            "{}: step {} is not the last saved step of a run of {steps} steps",
+            state_path.display(),
+            saved.step
+        )));
+    }
+    let keys = setup.fingerprint.keys().chain(saved.fingerprint.keys());
+    for key in keys {
+        if saved.fingerprint.get(key) != setup.fingerprint.get(key) {
+            return Err(invalid(format!(
+                "{} does not belong to {}: `{key}` changed since the saved run (resume needs the same constants, laws, loads, mesh and scheme; start afresh with --overwrite)",
+                state_path.display(),
+                setup.origin
+            )));
+        }
+    }
+    if saved.accumulated_slip.len() != contact_nodes {
+        return Err(mismatch(
+            "the number of contact nodes",
+            saved.accumulated_slip.len().to_string(),
+            contact_nodes.to_string(),
+        ));
+    }
+    let expected_time = saved.step as f64 * simulation.time_step();
+    if saved.time.to_bits() != expected_time.to_bits() {
+        return Err(mismatch(
+            "the time of the step",
+            saved.time.to_string(),
+            expected_time.to_string(),
+        ));
+    }
+    check_saved_values::<D>(&saved, &state_path)?;
+    folder::remove_stale_temporaries(dir)?;
+    let saved_steps = saved.saved_steps.clone();
+    let step = saved.step;
+    let sums = RunningSums {
+        accumulated_slip: saved.accumulated_slip,
+        friction_dissipation: saved.friction_dissipation,
+        viscous_dissipation: saved.viscous_dissipation,
+    };
+    simulation.set_state(State {
+        step: saved.step,
+        time: saved.time,
+        displacement: saved.displacement,
+        velocity: saved.velocity,
+        damage: saved.damage,
+    })?;
+    Ok(Resumed {
+        saved_steps,
+        sums,
+        step,
+    })
+}
