@@ -35,8 +35,9 @@ impl<const D: usize> QuadratureRule<D> {
     /// A rule exact for all polynomials of total degree ≤ `degree` (any degree).
     ///
     /// Degrees 0 and 1 give the 1-point centroid rule. In D = 2, degree 2 gives the symmetric
-    /// 3-point rule and degrees 3–4 the symmetric 6-point rule; in D = 3, degree 2 gives the
-    /// symmetric 4-point rule. All other cases use the conical product of ⌊degree/2⌋ + 1
+    /// 3-point rule, degrees 3–4 the symmetric 6-point rule and degree 5 Radon's 7-point rule;
+    /// in D = 3, degree 2 gives the symmetric 4-point rule and degrees 4–5 the symmetric
+    /// 14-point rule. All other cases use the conical product of ⌊degree/2⌋ + 1
     /// Gauss–Jacobi points per direction. [`QuadratureRule::degree`] reports the degree the
     /// returned rule is actually exact to, which may exceed the requested one.
     pub fn simplex(degree: usize) -> Self {
@@ -46,7 +47,9 @@ impl<const D: usize> QuadratureRule<D> {
         match (D, degree) {
             (2, 2) => Self::triangle_three_point(),
             (2, 3 | 4) => Self::triangle_six_point(),
+            (2, 5) => Self::triangle_seven_point(),
             (3, 2) => Self::tetrahedron_four_point(),
+            (3, 4 | 5) => Self::tetrahedron_fourteen_point(),
             _ => Self::conical_product(degree / 2 + 1),
         }
     }
@@ -144,6 +147,70 @@ impl<const D: usize> QuadratureRule<D> {
             point_from_slice::<D>(&[a, a, b]),
         ];
         Self::from_orbits(&[(&orbit, 1.0 / 24.0)], 2)
+    }
+
+    /// Radon's symmetric 7-point triangle rule (degree 5): the centroid with weight 9/80 and the
+    /// orbits (a, a, 1 − 2a) with a = (6 ∓ √15)/21 and weights (155 ∓ √15)/2400 (triangle area
+    /// 1/2). Only called with D = 2.
+    fn triangle_seven_point() -> Self {
+        let sqrt15 = 15f64.sqrt();
+        let orbit_of = |a: f64| {
+            let c = 1.0 - 2.0 * a;
+            [
+                point_from_slice::<D>(&[a, a]),
+                point_from_slice::<D>(&[c, a]),
+                point_from_slice::<D>(&[a, c]),
+            ]
+        };
+        let centroid = [point_from_slice::<D>(&[1.0 / 3.0, 1.0 / 3.0])];
+        let first = orbit_of((6.0 - sqrt15) / 21.0);
+        let second = orbit_of((6.0 + sqrt15) / 21.0);
+        Self::from_orbits(
+            &[
+                (&centroid, 9.0 / 80.0),
+                (&first, (155.0 - sqrt15) / 2400.0),
+                (&second, (155.0 + sqrt15) / 2400.0),
+            ],
+            5,
+        )
+    }
+
+    /// The symmetric 14-point tetrahedron rule of degree 5 with positive weights (Walkington
+    /// 2000; Keast 1986): orbits (a, a, a, 1 − 3a) for two values of a and (b, b, ½ − b, ½ − b);
+    /// the parameters below solve the moment equations of degree ≤ 5 to 1e-40 (recomputed by
+    /// Newton's method in 40-digit arithmetic; the unit tests check exactness). Only called with
+    /// D = 3. The literals keep the digits computed (the compiler rounds them correctly).
+    #[allow(clippy::excessive_precision)]
+    fn tetrahedron_fourteen_point() -> Self {
+        let vertex_orbit = |a: f64| {
+            let c = 1.0 - 3.0 * a;
+            [
+                point_from_slice::<D>(&[a, a, a]),
+                point_from_slice::<D>(&[c, a, a]),
+                point_from_slice::<D>(&[a, c, a]),
+                point_from_slice::<D>(&[a, a, c]),
+            ]
+        };
+        let b = 0.045_503_704_125_649_649_49;
+        let c = 0.5 - b;
+        let edge_orbit = [
+            point_from_slice::<D>(&[b, b, c]),
+            point_from_slice::<D>(&[b, c, b]),
+            point_from_slice::<D>(&[c, b, b]),
+            point_from_slice::<D>(&[c, c, b]),
+            point_from_slice::<D>(&[c, b, c]),
+            point_from_slice::<D>(&[b, c, c]),
+        ];
+        let near_vertex = vertex_orbit(0.092_735_250_310_891_226_40);
+        let near_face = vertex_orbit(0.310_885_919_263_300_609_80);
+        Self::from_orbits(
+            &[
+                (&near_vertex, 0.012_248_840_519_393_658_26),
+                (&near_face, 0.018_781_320_953_002_641_80),
+                (&edge_orbit, 0.007_091_003_462_846_911_07),
+            ],
+            5,
+        )
     }
 
     /// Conical product of `points_per_direction` Gauss–Jacobi points per direction, exact to
@@ -469,7 +536,10 @@ mod tests {
         assert_eq!(QuadratureRule::<3>::simplex(2).len(), 4);
         // Conical rules: (⌊p/2⌋ + 1)^D points.
         assert_eq!(QuadratureRule::<1>::simplex(5).len(), 3);
-        assert_eq!(QuadratureRule::<2>::simplex(5).len(), 9);
+        assert_eq!(QuadratureRule::<2>::simplex(5).len(), 7);
+        assert_eq!(QuadratureRule::<3>::simplex(4).len(), 14);
+        assert_eq!(QuadratureRule::<3>::simplex(5).len(), 14);
+        assert_eq!(QuadratureRule::<2>::simplex(6).len(), 16);
         assert_eq!(QuadratureRule::<3>::simplex(3).len(), 8);
     }
 
