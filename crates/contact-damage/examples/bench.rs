@@ -47,7 +47,7 @@ use contact_damage::linalg::{multiply, CholeskySolver};
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::obstacle::BoxQpSettings;
 use contact_damage::ordering::{fill_reducing_node_order, NodeGraph};
-use contact_damage::scheme::{Data, Model, Problem, SchemeSettings, Simulation};
+use contact_damage::scheme::{Data, Model, Problem, SchemeSettings, Simulation, StepOutcome};
 use contact_damage::space::LagrangeSpace;
 use contact_damage::velocity::{VelocityData, VelocityOperator, VelocitySettings};
 use report::{cpu_model, fmt_s, load_average, utc_now, write_atomically};
@@ -536,7 +536,7 @@ fn measure<const D: usize>(cells: usize) -> contact_damage::Result<BTreeMap<Stri
     progress(D, cells, "Simulation::new", sim_new);
     put("sim_new_s", format!("{sim_new:.4}"));
     let start = Instant::now();
-    let (first_velocity, ..) = simulation.step()?;
+    let first_velocity = simulation.step()?.velocity;
     let step1 = seconds(start);
     progress(D, cells, "step 1", step1);
     put("step1_s", format!("{step1:.4}"));
@@ -549,7 +549,9 @@ fn measure<const D: usize>(cells: usize) -> contact_damage::Result<BTreeMap<Stri
     let loads = seconds(start);
     put("loads_s", format!("{loads:.4}"));
     let start = Instant::now();
-    let (velocity, damage, ..) = simulation.step()?;
+    let StepOutcome {
+        velocity, damage, ..
+    } = simulation.step()?;
     let step2 = seconds(start);
     progress(D, cells, "step 2", step2);
     put("step2_s", format!("{step2:.4}"));

@@ -51,7 +51,7 @@
 //!     Ok(())
 //! })?;
 //! assert_eq!(summary.steps, 10);
-//! assert!(summary.steps_with_status[1] + summary.steps_with_status[2] > 0, "the body touches the foundation");
+//! assert!(summary.steps_with_status.stick + summary.steps_with_status.slip > 0, "the body touches the foundation");
 //! # Ok::<(), contact_damage::Error>(())
 //! ```
 
@@ -83,7 +83,7 @@ pub use error::{Error, Result};
 pub use mesh::{BoundaryPart, Mesh};
 pub use scheme::{
     ContactTreatment, DamageEvolution, Data, Model, Problem, RunSummary, SchemeSettings,
-    Simulation, State, StepReport,
+    Simulation, State, StatusCounts, StepOutcome, StepReport,
 };
 pub use space::LagrangeSpace;
 

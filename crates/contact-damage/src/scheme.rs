@@ -148,6 +148,30 @@ pub struct State {
     pub damage: Vec<f64>,
 }
 
+/// What one step of the scheme computed ([`Simulation::step`]).
+#[derive(Debug, Clone)]
+pub struct StepOutcome {
+    /// The velocity step (5.1): v_n, contact status, friction multipliers, reactions, statistics.
+    pub velocity: VelocitySolution,
+    /// The damage step (5.2): β_n and the statistics of the box QP.
+    pub damage: DamageSolution,
+    /// p_ν per contact node as used in the step (at u_{n−1}, or at u_n when implicit).
+    pub normal_pressure: Vec<f64>,
+    /// The friction bound p_τ per contact node (at u_{n−1}).
+    pub friction_bound: Vec<f64>,
+}
+
+/// Counts of something per contact status: separated, stick, slip.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct StatusCounts {
+    /// Separated (p_ν = 0).
+    pub separated: usize,
+    /// In contact and sticking.
+    pub stick: usize,
+    /// In contact and slipping.
+    pub slip: usize,
+}
+
 /// What the observer sees after each step.
 pub struct StepReport<'a, const D: usize> {
     /// The state after the step.
@@ -197,8 +221,8 @@ pub struct RunSummary {
     pub velocity_factorizations: usize,
     /// Numeric factorizations in the damage steps.
     pub damage_factorizations: usize,
-    /// Steps in which some contact node was in each state (separated, stick, slip).
-    pub steps_with_status: [usize; 3],
+    /// Steps in which some contact node was in each state.
+    pub steps_with_status: StatusCounts,
     /// Steps in which the lower / upper damage bound was active at some node.
     pub steps_with_damage_bound: [usize; 2],
 }
@@ -470,7 +494,7 @@ impl<const D: usize> Simulation<D> {
     /// velocity step takes v_c = (u_D(t_n) − u_{n−1,c})/k and u_n = u_D(t_n) is set exactly;
     /// p_ν and p_τ take the gap at t_{n−1} (the implicit normal compliance at t_n). Returns the
     /// velocity and damage solutions, the normal pressure of the step and the friction bound.
-    pub fn step(&mut self) -> Result<(VelocitySolution, DamageSolution, Vec<f64>, Vec<f64>)> {
+    pub fn step(&mut self) -> Result<StepOutcome> {
         let n = self.state.step + 1;
         let time = n as f64 * self.time_step();
         let started = std::time::Instant::now();
@@ -560,7 +584,12 @@ impl<const D: usize> Simulation<D> {
         } else {
             normal_pressure
         };
-        Ok((velocity, damage, normal_pressure, friction_bound))
+        Ok(StepOutcome {
+            velocity,
+            damage,
+            normal_pressure,
+            friction_bound,
+        })
     }
 
     /// Runs the remaining steps up to N, calling `observer` after each.
@@ -570,7 +599,12 @@ impl<const D: usize> Simulation<D> {
     ) -> Result<RunSummary> {
         let mut summary = RunSummary::default();
         while self.state.step < self.problem.steps {
-            let (velocity, damage, normal_pressure, friction_bound) = self.step()?;
+            let StepOutcome {
+                velocity,
+                damage,
+                normal_pressure,
+                friction_bound,
+            } = self.step()?;
             summary.steps += 1;
             summary.max_velocity_kkt = summary.max_velocity_kkt.max(velocity.stats.kkt_residual);
             summary.max_damage_kkt = summary.max_damage_kkt.max(damage.stats.kkt_residual);
@@ -585,16 +619,14 @@ impl<const D: usize> Simulation<D> {
             summary.damage_iterations += damage.stats.iterations;
             summary.velocity_factorizations += velocity.stats.factorizations;
             summary.damage_factorizations += damage.stats.factorizations;
-            for (slot, status) in [
-                ContactStatus::Separated,
-                ContactStatus::Stick,
-                ContactStatus::Slip,
-            ]
-            .iter()
-            .enumerate()
-            {
-                if velocity.status.contains(status) {
-                    summary.steps_with_status[slot] += 1;
+            let steps_with = &mut summary.steps_with_status;
+            for (count, status) in [
+                (&mut steps_with.separated, ContactStatus::Separated),
+                (&mut steps_with.stick, ContactStatus::Stick),
+                (&mut steps_with.slip, ContactStatus::Slip),
+            ] {
+                if velocity.status.contains(&status) {
+                    *count += 1;
                 }
             }
             if damage.stats.lower_active > 0 {

@@ -75,7 +75,7 @@ fn run_patch<const D: usize>(mesh: Mesh<D>, degree: usize, field: Field<D>) -> f
     // β0 = 0: G vanishes, so (5.1) is linear elasticity in the velocity
     problem.data.initial_damage = Arc::new(|_| 0.0);
     let mut simulation = Simulation::new(problem).unwrap();
-    let (velocity, _, _, _) = simulation.step().unwrap();
+    let velocity = simulation.step().unwrap().velocity;
     let space = simulation.space();
     let mut worst: f64 = 0.0;
     for node in 0..space.num_nodes() {

@@ -272,7 +272,7 @@ fn moving_negative_gap_is_taken_at_the_start_of_the_step_explicit_and_at_its_end
         let mut negative_gap_contact = false;
         while simulation.state().step < simulation.steps() {
             let n = simulation.state().step + 1;
-            let (_, _, used, _) = simulation.step().unwrap();
+            let used = simulation.step().unwrap().normal_pressure;
             let expected = match treatment {
                 ContactTreatment::Explicit => pressures(&simulation, &previous, (n - 1) as f64 * k),
                 ContactTreatment::Implicit => {

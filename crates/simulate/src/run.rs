@@ -42,7 +42,7 @@ use crate::snapshot::{save_step, SavedStep};
 use crate::zone::{boundary_penetration, contact_force, contact_zone, ContactZone};
 use contact_damage::contact::ContactNodes;
 use contact_damage::quadrature::QuadratureRule;
-use contact_damage::scheme::{ContactTreatment, DamageEvolution, Simulation};
+use contact_damage::scheme::{ContactTreatment, DamageEvolution, Simulation, StepOutcome};
 use contact_damage::space::Tabulation;
 use contact_damage::stability::StepLimit;
 use contact_input::output::write_atomic;
@@ -309,7 +309,12 @@ pub fn run<const D: usize>(
         );
     }
     while simulation.state().step < last_step {
-        let (velocity, damage, normal_pressure, friction_bound) = simulation
+        let StepOutcome {
+            velocity,
+            damage,
+            normal_pressure,
+            friction_bound,
+        } = simulation
             .step()
             .map_err(|error| setup.load_watch.explain(&setup.origin, error.into()))?;
         let state = simulation.state();
