@@ -223,8 +223,10 @@ pub struct RunSummary {
     pub damage_factorizations: usize,
     /// Steps in which some contact node was in each state.
     pub steps_with_status: StatusCounts,
-    /// Steps in which the lower / upper damage bound was active at some node.
-    pub steps_with_damage_bound: [usize; 2],
+    /// Steps in which the lower bound β = 0 was active at some node.
+    pub steps_with_lower_damage_bound: usize,
+    /// Steps in which the upper bound β = 1 was active at some node.
+    pub steps_with_upper_damage_bound: usize,
 }
 
 /// Wall time spent so far in the parts of the steps (for benchmarks; a few clock reads per step).
@@ -630,10 +632,10 @@ impl<const D: usize> Simulation<D> {
                 }
             }
             if damage.stats.lower_active > 0 {
-                summary.steps_with_damage_bound[0] += 1;
+                summary.steps_with_lower_damage_bound += 1;
             }
             if damage.stats.upper_active > 0 {
-                summary.steps_with_damage_bound[1] += 1;
+                summary.steps_with_upper_damage_bound += 1;
             }
             let reactions = self.part_reactions(&velocity.reaction);
             observer(&StepReport {

@@ -109,8 +109,8 @@ impl RunStats {
             steps_with_separation: summary.steps_with_status.separated,
             steps_with_stick: summary.steps_with_status.stick,
             steps_with_slip: summary.steps_with_status.slip,
-            steps_with_lower_bound: summary.steps_with_damage_bound[0],
-            steps_with_upper_bound: summary.steps_with_damage_bound[1],
+            steps_with_lower_bound: summary.steps_with_lower_damage_bound,
+            steps_with_upper_bound: summary.steps_with_upper_damage_bound,
             wall_seconds: seconds,
         }
     }
