@@ -35,9 +35,11 @@ impl<const D: usize> QuadratureRule<D> {
     /// A rule exact for all polynomials of total degree ≤ `degree` (any degree).
     ///
     /// Degrees 0 and 1 give the 1-point centroid rule. In D = 2, degree 2 gives the symmetric
-    /// 3-point rule, degrees 3–4 the symmetric 6-point rule and degree 5 Radon's 7-point rule;
-    /// in D = 3, degree 2 gives the symmetric 4-point rule and degrees 4–5 the symmetric
-    /// 14-point rule. All other cases use the conical product of ⌊degree/2⌋ + 1
+    /// 3-point rule, degrees 3–4 the symmetric 6-point rule, degree 5 Radon's 7-point rule and
+    /// degree 6 Dunavant's 12-point rule; in D = 3, degree 2 gives the symmetric 4-point rule,
+    /// degrees 4–5 the symmetric 14-point rule and degree 6 Keast's 24-point rule (all with
+    /// positive weights and interior points). All other cases use the conical product of
+    /// ⌊degree/2⌋ + 1
     /// Gauss–Jacobi points per direction. [`QuadratureRule::degree`] reports the degree the
     /// returned rule is actually exact to, which may exceed the requested one.
     pub fn simplex(degree: usize) -> Self {
@@ -48,8 +50,10 @@ impl<const D: usize> QuadratureRule<D> {
             (2, 2) => Self::triangle_three_point(),
             (2, 3 | 4) => Self::triangle_six_point(),
             (2, 5) => Self::triangle_seven_point(),
+            (2, 6) => Self::triangle_twelve_point(),
             (3, 2) => Self::tetrahedron_four_point(),
             (3, 4 | 5) => Self::tetrahedron_fourteen_point(),
+            (3, 6) => Self::tetrahedron_twenty_four_point(),
             _ => Self::conical_product(degree / 2 + 1),
         }
     }
@@ -172,6 +176,92 @@ impl<const D: usize> QuadratureRule<D> {
                 (&second, (155.0 + sqrt15) / 2400.0),
             ],
             5,
+        )
+    }
+
+    /// Dunavant's symmetric 12-point triangle rule of degree 6 (1985): orbits (a, a, 1 − 2a) for
+    /// two values of a and the 6 permutations of (a, b, 1 − a − b); parameters recomputed by
+    /// Newton's method on the moment equations in 40-digit arithmetic (weights relative to the
+    /// area 1/2). Only called with D = 2.
+    #[allow(clippy::excessive_precision)]
+    fn triangle_twelve_point() -> Self {
+        let vertex_orbit = |a: f64| {
+            let c = 1.0 - 2.0 * a;
+            [
+                point_from_slice::<D>(&[a, a]),
+                point_from_slice::<D>(&[c, a]),
+                point_from_slice::<D>(&[a, c]),
+            ]
+        };
+        let (a, b) = (0.053_145_049_844_816_947_35, 0.310_352_451_033_784_405_42);
+        let c = 1.0 - a - b;
+        let general = [
+            point_from_slice::<D>(&[a, b]),
+            point_from_slice::<D>(&[b, a]),
+            point_from_slice::<D>(&[a, c]),
+            point_from_slice::<D>(&[c, a]),
+            point_from_slice::<D>(&[b, c]),
+            point_from_slice::<D>(&[c, b]),
+        ];
+        let inner = vertex_orbit(0.249_286_745_170_910_421_29);
+        let outer = vertex_orbit(0.063_089_014_491_502_228_34);
+        Self::from_orbits(
+            &[
+                (&inner, 0.058_393_137_863_189_683_01),
+                (&outer, 0.025_422_453_185_103_408_46),
+                (&general, 0.041_425_537_809_186_787_60),
+            ],
+            6,
+        )
+    }
+
+    /// Keast's symmetric 24-point tetrahedron rule of degree 6 (1986), positive weights: three
+    /// orbits (a, a, a, 1 − 3a) and the 12 permutations of (a, a, b, 1 − 2a − b); parameters
+    /// recomputed by Newton's method on the moment equations in 40-digit arithmetic. Only
+    /// called with D = 3.
+    #[allow(clippy::excessive_precision)]
+    fn tetrahedron_twenty_four_point() -> Self {
+        let vertex_orbit = |a: f64| {
+            let c = 1.0 - 3.0 * a;
+            [
+                point_from_slice::<D>(&[a, a, a]),
+                point_from_slice::<D>(&[c, a, a]),
+                point_from_slice::<D>(&[a, c, a]),
+                point_from_slice::<D>(&[a, a, c]),
+            ]
+        };
+        let (a, b) = (0.063_661_001_875_017_525_30, 0.269_672_331_458_315_808_03);
+        let c = 1.0 - 2.0 * a - b;
+        // the barycentric coordinates (λ0, λ1, λ2, λ3) run over the permutations of (a, a, b, c);
+        // the point is (λ1, λ2, λ3)
+        let general: Vec<[f64; D]> = [
+            [a, a, b, c],
+            [a, a, c, b],
+            [a, b, a, c],
+            [a, c, a, b],
+            [a, b, c, a],
+            [a, c, b, a],
+            [b, a, a, c],
+            [c, a, a, b],
+            [b, a, c, a],
+            [c, a, b, a],
+            [b, c, a, a],
+            [c, b, a, a],
+        ]
+        .iter()
+        .map(|lambda| point_from_slice::<D>(&lambda[1..]))
+        .collect();
+        let first = vertex_orbit(0.214_602_871_259_152_029_29);
+        let second = vertex_orbit(0.040_673_958_534_611_353_12);
+        let third = vertex_orbit(0.322_337_890_142_275_510_34);
+        Self::from_orbits(
+            &[
+                (&first, 0.006_653_791_709_694_582_02),
+                (&second, 0.001_679_535_175_886_773_82),
+                (&third, 0.009_226_196_923_942_453_68),
+                (&general, 0.008_035_714_285_714_285_71),
+            ],
+            6,
         )
     }
 
@@ -539,7 +629,9 @@ mod tests {
         assert_eq!(QuadratureRule::<2>::simplex(5).len(), 7);
         assert_eq!(QuadratureRule::<3>::simplex(4).len(), 14);
         assert_eq!(QuadratureRule::<3>::simplex(5).len(), 14);
-        assert_eq!(QuadratureRule::<2>::simplex(6).len(), 16);
+        assert_eq!(QuadratureRule::<2>::simplex(6).len(), 12);
+        assert_eq!(QuadratureRule::<3>::simplex(6).len(), 24);
+        assert_eq!(QuadratureRule::<2>::simplex(7).len(), 16);
         assert_eq!(QuadratureRule::<3>::simplex(3).len(), 8);
     }
 
