@@ -10,6 +10,7 @@
 //! - [`pictures`]: SVG pictures of the damage field and of the contact history on Γ3;
 //! - [`zone`]: the contact zone from the zero crossing of the penetration, and the contact force.
 
+pub mod convergence;
 pub mod folder;
 pub mod history;
 pub mod pictures;

@@ -1,0 +1,3 @@
+//! Solution verification of a simulation: `simulate --convergence K`.
+
+pub mod gci;
