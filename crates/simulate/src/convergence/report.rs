@@ -68,7 +68,8 @@ fn estimate_cells(quantity: &Quantity) -> [String; 7] {
     ]
 }
 
-/// The columns after `quantity,t,` and the values per level.
+/// The columns of `convergence.csv` after `quantity,t,` and the values per level
+/// (`level_0` coarsest); relative errors and the GCI as fractions.
 pub const CSV_HEADER: [&str; 7] = [
     "convergence",
     "order",
@@ -142,6 +143,25 @@ pub fn table(study: &Study) -> String {
     lines.join("\n")
 }
 
+/// The estimate columns of `convergence.csv`: full precision, relative errors as fractions,
+/// `—` where there is none.
+fn csv_cells(quantity: &Quantity) -> [String; 7] {
+    let estimate = reported(quantity);
+    let raw = |value: Option<f64>| match value.filter(|v| v.is_finite()) {
+        Some(v) => v.to_string(),
+        None => MISSING.to_string(),
+    };
+    [
+        quantity.finest().convergence.name().to_string(),
+        raw(estimate.map(|e| e.order)),
+        raw(estimate.map(|e| e.extrapolated)),
+        raw(estimate.map(|e| e.approximate_relative_error)),
+        raw(estimate.map(|e| e.extrapolated_relative_error)),
+        raw(estimate.map(|e| e.gci_fine)),
+        raw(estimate.map(|e| e.asymptotic_ratio)),
+    ]
+}
+
 fn csv_text(study: &Study) -> String {
     let mut header = vec!["quantity".to_string(), "t".to_string()];
     header.extend((0..study.levels.len()).map(|i| format!("level_{i}")));
@@ -150,7 +170,7 @@ fn csv_text(study: &Study) -> String {
     for quantity in &study.quantities {
         let mut row = vec![quantity.column.clone(), quantity.time.to_string()];
         row.extend(quantity.values.iter().map(|v| v.to_string()));
-        row.extend(estimate_cells(quantity));
+        row.extend(csv_cells(quantity));
         text += &(row.join(",") + "\n");
     }
     text
