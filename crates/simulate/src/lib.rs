@@ -4,6 +4,8 @@
 //!
 //! - [`problem`]: the problem file and its translation into the solver's problem;
 //! - [`run`]: the time loop, the output files and `--resume`;
+//! - [`convergence`]: `--convergence K`, solution verification of a problem by the Grid
+//!   Convergence Index on K levels refined in h and k together;
 //! - [`folder`]: which files of the output folder are ours, and what `--overwrite` and
 //!   `--resume` may remove;
 //! - [`history`]: the integral quantities of `history.csv` (forces, zones, slip, dissipation, damage);

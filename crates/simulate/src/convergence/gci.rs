@@ -157,7 +157,7 @@ pub fn observed_order(r21: f64, r32: f64, e21: f64, e32: f64) -> Option<f64> {
 /// The three-grid procedure of Celik on grids `h` (finest first, h1 < h2 < h3) with values
 /// `phi`.
 pub fn three_grid(h: [f64; 3], phi: [f64; 3]) -> Result<Triplet, GciError> {
-    if !h.iter().all(|x| x.is_finite() && *x > 0.0) || !(h[0] < h[1] && h[1] < h[2]) {
+    if !(h.iter().all(|x| x.is_finite() && *x > 0.0) && h[0] < h[1] && h[1] < h[2]) {
         return Err(GciError(format!(
             "grid sizes must be positive and increasing from the finest, got {h:?}"
         )));

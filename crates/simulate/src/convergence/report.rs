@@ -233,10 +233,16 @@ GCI_32 / (r^p GCI_21), near 1 in the asymptotic range. A quantity that does not 
         .filter(|q| !q.monotone())
         .map(|q| {
             let kinds: Vec<&str> = q.triplets.iter().map(|t| t.convergence.name()).collect();
+            let same = q.values.iter().all(|v| *v == q.values[0]);
             format!(
-                "- `{}`: {} (triplets finest first)",
+                "- `{}`: {} (triplets finest first){}",
                 q.label(),
-                kinds.join(", ")
+                kinds.join(", "),
+                if same {
+                    "; the same value on every level, no discretization effect to measure"
+                } else {
+                    ""
+                }
             )
         })
         .collect();
