@@ -55,8 +55,8 @@ pub struct Level {
     pub h: f64,
     /// k = T/N.
     pub k: f64,
-    /// The run's folder.
-    pub dir: PathBuf,
+    /// The run's folder, relative to `--out` (`level_i`).
+    pub dir: String,
     /// Largest KKT residuals of the run (velocity, damage).
     pub max_kkt: [f64; 2],
 }
@@ -269,7 +269,8 @@ pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Stud
     let mut levels = Vec::new();
     let mut histories = Vec::new();
     for (index, level) in files.into_iter().enumerate() {
-        let dir = options.out.join(format!("level_{index}"));
+        let name = format!("level_{index}");
+        let dir = options.out.join(&name);
         let cells = level
             .mesh
             .box_mesh
@@ -319,7 +320,7 @@ pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Stud
             steps,
             h,
             k: final_time / steps as f64,
-            dir,
+            dir: name,
             max_kkt: outcome.max_kkt,
         });
     }
