@@ -176,6 +176,7 @@ fn bad_requests_are_refused_with_a_clear_message() {
         let stderr = String::from_utf8_lossy(&output.stderr);
         assert!(!output.status.success(), "{args:?}");
         assert!(stderr.contains(message), "{args:?}: {stderr}");
+        assert!(!out.join("level_0").exists(), "{args:?}");
     }
     // a Gmsh problem cannot be refined yet: said so before anything runs
     let gmsh = scratch.path().join("gmsh.toml");

@@ -126,6 +126,9 @@ fn invalid(message: String) -> InputError {
 
 /// `factor` as a whole number if `base × factor` is one (within rounding), for `what`.
 fn scaled(base: usize, factor: f64, what: &str) -> Result<usize, InputError> {
+    if base == 0 {
+        return Err(invalid(format!("{what} must be at least 1, got 0")));
+    }
     let value = base as f64 * factor;
     let whole = value.round();
     if (value - whole).abs() > 1e-9 * value.max(1.0) || whole < 1.0 {
@@ -266,6 +269,18 @@ pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Stud
     let files: Vec<ProblemFile> = (0..options.levels)
         .map(|i| level_file(&file, &origin, options.ratio, i))
         .collect::<Result<_, _>>()?;
+    // every level is built and checked (e.g. a box too large to allocate) before the first run
+    for level in &files {
+        match level.dim {
+            2 => drop(ProblemSetup::<2>::new(level.clone(), path)?),
+            3 => drop(ProblemSetup::<3>::new(level.clone(), path)?),
+            other => {
+                return Err(invalid(format!(
+                    "{origin}: dim must be 2 or 3, got {other}"
+                )));
+            }
+        }
+    }
     let mut levels = Vec::new();
     let mut histories = Vec::new();
     for (index, level) in files.into_iter().enumerate() {
