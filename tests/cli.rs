@@ -37,6 +37,37 @@ fn verify_writes_csv_json_and_svg_reports() {
     assert_eq!(json["studies"].as_array().unwrap().len(), 2);
     let svg = std::fs::read_to_string(out.join("h-l1.svg")).unwrap();
     assert!(svg.contains("<svg") && svg.contains("damage gradient"));
+    // the least-squares rates carry their standard error on the terminal; rates.csv, report.md
+    // and tables.tex are written too, with the total error of every run of errors.csv
+    let stdout = String::from_utf8_lossy(&status.stdout);
+    assert!(stdout.contains("(SE)"), "{stdout}");
+    let rates = std::fs::read_to_string(out.join("rates.csv")).unwrap();
+    assert_eq!(
+        rates.lines().count(),
+        1 + 2 * 6,
+        "header + 2 studies × 6 components"
+    );
+    assert!(rates
+        .lines()
+        .next()
+        .unwrap()
+        .contains("standard_error,ci95_low,ci95_high,drifting"));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let tex = std::fs::read_to_string(out.join("tables.tex")).unwrap();
+    let mut reader = csv::Reader::from_reader(csv.as_bytes());
+    let total = reader
+        .headers()
+        .unwrap()
+        .iter()
+        .position(|h| h == "total")
+        .unwrap();
+    for record in reader.records() {
+        let value: f64 = record.unwrap()[total].parse().unwrap();
+        let printed = format!("{value:.3e}");
+        assert!(md.contains(&format!("| {printed} |")), "{printed}: {md}");
+        assert!(tex.contains(&format!("& {printed} &")), "{printed}: {tex}");
+    }
+    assert!(md.contains("](h-l1.svg)") && md.contains("](diagonal-l1.svg)"));
     // no temporary file left behind
     for entry in std::fs::read_dir(&out).unwrap() {
         let name = entry.unwrap().file_name().into_string().unwrap();

@@ -4,12 +4,15 @@
 //!
 //! - [`problem`]: the problem file and its translation into the solver's problem;
 //! - [`run`]: the time loop, the output files and `--resume`;
+//! - [`convergence`]: `--convergence K`, solution verification of a problem by the Grid
+//!   Convergence Index on K levels refined in h and k together;
 //! - [`folder`]: which files of the output folder are ours, and what `--overwrite` and
 //!   `--resume` may remove;
 //! - [`history`]: the integral quantities of `history.csv` (forces, zones, slip, dissipation, damage);
 //! - [`pictures`]: SVG pictures of the damage field and of the contact history on Γ3;
 //! - [`zone`]: the contact zone from the zero crossing of the penetration, and the contact force.
 
+pub mod convergence;
 pub mod folder;
 pub mod history;
 pub mod pictures;

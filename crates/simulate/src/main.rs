@@ -1,4 +1,6 @@
-//! `simulate PROBLEM.toml [--out DIR] [--resume]`: see the crate documentation.
+//! `simulate PROBLEM.toml [--out DIR] [--resume]`, or
+//! `simulate --convergence K PROBLEM.toml --out DIR [--ratio R] [--at t1,t2]` (solution
+//! verification, [`simulate::convergence`]): see the crate documentation.
 //!
 //! Exit codes: 0 done, 1 error, 130 interrupted by Ctrl-C (the step in progress was finished
 //! and saved; `--resume` continues). A second Ctrl-C ends the program at once; every file on
@@ -40,6 +42,48 @@ struct Cli {
     /// memory of the machine).
     #[arg(long, value_name = "GiB")]
     memory_limit: Option<f64>,
+    /// Solution verification: run K ≥ 3 levels refined in h and k together and write the GCI
+    /// of the quantities of interest (convergence.csv/json, report.md, tables.tex, SVGs) to --out.
+    #[arg(long, value_name = "K", conflicts_with_all = ["resume", "until_step"])]
+    convergence: Option<usize>,
+    /// Refinement ratio of h and k between levels (with --convergence).
+    #[arg(long, default_value_t = 2.0, requires = "convergence")]
+    ratio: f64,
+    /// Times of the contact force and zone (with --convergence; default T/2 and T).
+    #[arg(long, value_delimiter = ',', requires = "convergence")]
+    at: Option<Vec<f64>>,
+}
+
+/// `--convergence`: runs the levels, prints the table and writes the files.
+fn convergence(cli: &Cli, levels: usize) -> ExitCode {
+    let Some(out) = cli.out.clone() else {
+        eprintln!("simulate: --convergence needs --out DIR (the levels and the reports go there)");
+        return ExitCode::FAILURE;
+    };
+    let options = simulate::convergence::ConvergenceOptions {
+        levels,
+        ratio: cli.ratio,
+        at: cli.at.clone(),
+        out: out.clone(),
+        overwrite: cli.overwrite,
+        quiet: cli.quiet,
+    };
+    let result = simulate::convergence::run_convergence(&cli.problem, &options).and_then(|study| {
+        println!("{}", simulate::convergence::report::table(&study));
+        simulate::convergence::report::write_files(&out, &study)
+    });
+    match result {
+        Ok(written) => {
+            for path in written {
+                println!("wrote {}", path.display());
+            }
+            ExitCode::SUCCESS
+        }
+        Err(error) => {
+            eprintln!("simulate: {error}");
+            ExitCode::FAILURE
+        }
+    }
 }
 
 fn main() -> ExitCode {
@@ -53,6 +97,9 @@ fn main() -> ExitCode {
             eprintln!("simulate: --memory-limit {gib}: must be a positive number of GiB");
             return ExitCode::FAILURE;
         }
+    }
+    if let Some(levels) = cli.convergence {
+        return convergence(&cli, levels);
     }
     let interrupt = Arc::new(AtomicBool::new(false));
     let flag = interrupt.clone();

@@ -102,7 +102,7 @@ pub fn check_memory(
 }
 
 /// Largest KKT residuals of the velocity steps (5.1) and damage steps (5.2) of a run.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
+#[derive(Debug, Clone, Copy, Default, PartialEq, serde::Serialize)]
 pub struct MaxKkt {
     /// Of the velocity steps (5.1).
     pub velocity: f64,

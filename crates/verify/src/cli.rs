@@ -212,7 +212,9 @@ fn fixed(value: f64, precision: usize) -> String {
 
 /// The table of a study, as printed by [`print_study`]: one line per run (errors, largest KKT
 /// residual, Newton iterations of one velocity step (5.1) as mean/max over the steps, wall
-/// time), then one line of rates per error component that has any. A missing value is `—`.
+/// time), then one line of rates per error component that has any: pairwise rates, the
+/// least-squares rate ± its standard error, `drifting` when the pairwise rates are not yet in
+/// the asymptotic range ([`crate::study::is_drifting`]), the verdict. A missing value is `—`.
 pub fn study_table(study: &StudyResult) -> String {
     let mut lines = vec![format!(
         "{}-study, l = {}: rates in {} (expected {}, verdict {})",
@@ -262,10 +264,16 @@ pub fn study_table(study: &StudyResult) -> String {
     for rates in study.rates.iter().filter(|r| !r.is_missing()) {
         let pairwise: Vec<String> = rates.pairwise.iter().map(|&r| fixed(r, 2)).collect();
         lines.push(format!(
-            "  {:<20} pairwise [{}]  least squares {}{}",
+            "  {:<20} pairwise [{}]  least squares {} ± {} (SE){}{}",
             rates.component,
             pairwise.join(", "),
             fixed(rates.least_squares, 3),
+            fixed(rates.standard_error, 3),
+            if rates.drifting == Some(true) {
+                "  drifting"
+            } else {
+                ""
+            },
             match rates.pass {
                 Some(true) => "  ok",
                 Some(false) => "  BELOW EXPECTED",

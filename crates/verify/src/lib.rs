@@ -10,7 +10,7 @@
 //! - [`manufactured`]: source terms f0, f2, f3, q derived by automatic differentiation;
 //! - [`errors`]: the components of E(h, k) of Theorem 5.2;
 //! - [`study`]: h-, k- and diagonal studies with rates and verdicts;
-//! - [`report`]: CSV, JSON and SVG reports;
+//! - [`report`]: CSV, JSON and SVG reports, `report.md` and `tables.tex` ([`tables`]);
 //! - [`cli`]: the `verify` command line.
 
 pub mod budget;
@@ -22,6 +22,7 @@ pub mod plot;
 pub mod report;
 pub mod smoothness;
 pub mod study;
+pub mod tables;
 
 /// The error type of the harness: that of the input layer (case-file errors are
 /// [`FileKind::Case`](contact_input::FileKind::Case)).

@@ -1,5 +1,8 @@
-//! Reports of a verification: `errors.csv` (one row per run), `summary.json` (everything), and
-//! one SVG log–log plot per study, all written atomically.
+//! Reports of a verification: `errors.csv` (one row per run), `rates.csv` (one row per study
+//! and error component: pairwise and least-squares rates, standard error, 95 % interval,
+//! drift flag, verdict), `summary.json` (everything), one SVG log–log plot per study, and
+//! `report.md` and `tables.tex` made from the rows of the two CSV files ([`crate::tables`]),
+//! all written atomically by [`write_reports`], the one entry point.
 //!
 //! No report holds `NaN` or `inf`: a value that does not exist (e.g. the velocity error of a
 //! k-study, measured against a discrete reference) is `—` in `errors.csv`, `null` in
@@ -7,10 +10,12 @@
 
 use crate::errors::ErrorComponents;
 use crate::output::{
-    finite_or_dash, finite_or_null, format_or_dash, write_csv_atomic, write_json_atomic,
+    finite_or_dash, finite_or_null, format_or_dash, write_atomic, write_csv_atomic,
+    write_json_atomic,
 };
 use crate::plot::{loglog_svg, ReferenceSlope, Series};
 use crate::study::{StudyResult, RATE_TOLERANCE};
+use crate::tables::{self, StudyHead};
 use crate::VerifyError;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -89,6 +94,42 @@ pub struct ErrorRow {
     pub wall_seconds: f64,
 }
 
+/// One row of `rates.csv`: the rates of one error component in one study.
+#[derive(Debug, Serialize)]
+pub struct RateRow {
+    /// Case name.
+    pub case: String,
+    /// Study kind.
+    pub study: &'static str,
+    /// Degree l.
+    pub degree: usize,
+    /// h or k.
+    pub variable: &'static str,
+    /// Component name.
+    pub component: String,
+    /// Pairwise rates, coarsest pair first, separated by `;` (`—` where there is none).
+    pub pairwise: String,
+    /// Least-squares rate over the finest levels.
+    #[serde(serialize_with = "finite_or_dash")]
+    pub least_squares: f64,
+    /// Its standard error.
+    #[serde(serialize_with = "finite_or_dash")]
+    pub standard_error: f64,
+    /// Lower end of its 95 % interval.
+    #[serde(serialize_with = "finite_or_dash")]
+    pub ci95_low: f64,
+    /// Upper end of its 95 % interval.
+    #[serde(serialize_with = "finite_or_dash")]
+    pub ci95_high: f64,
+    /// `yes` / `no` ([`crate::study::is_drifting`]), `—` when undetermined.
+    pub drifting: String,
+    /// Expected rate (`—` for a quantity the theorem does not bound).
+    #[serde(serialize_with = "finite_or_dash")]
+    pub expected: f64,
+    /// `pass`, `fail`, or `—` when not judged.
+    pub verdict: String,
+}
+
 /// `summary.json`.
 #[derive(Debug, Serialize)]
 pub struct Summary<'a> {
@@ -105,6 +146,11 @@ pub struct Summary<'a> {
     pub studies: &'a [StudyResult],
     /// True when every study passes.
     pub pass: bool,
+}
+
+/// The file name of the plot of a study.
+fn plot_name(study: &StudyResult) -> String {
+    format!("{}-l{}.svg", study.kind.name(), study.degree)
 }
 
 /// Writes every report file of `studies` into `out`; returns the written paths.
@@ -154,6 +200,42 @@ pub fn write_reports(
     let csv = out.join("errors.csv");
     write_csv_atomic(&csv, &rows)?;
     written.push(csv);
+    let rate_rows: Vec<RateRow> = studies
+        .iter()
+        .flat_map(|study| {
+            study.rates.iter().map(move |rates| RateRow {
+                case: case.to_string(),
+                study: study.kind.name(),
+                degree: study.degree,
+                variable: study.variable,
+                component: rates.component.clone(),
+                pairwise: rates
+                    .pairwise
+                    .iter()
+                    .map(|r| format_or_dash(*r, |r| r.to_string()))
+                    .collect::<Vec<_>>()
+                    .join(";"),
+                least_squares: rates.least_squares,
+                standard_error: rates.standard_error,
+                ci95_low: rates.interval_95.first().copied().unwrap_or(f64::NAN),
+                ci95_high: rates.interval_95.get(1).copied().unwrap_or(f64::NAN),
+                drifting: match rates.drifting {
+                    Some(true) => "yes".to_string(),
+                    Some(false) => "no".to_string(),
+                    None => crate::output::MISSING.to_string(),
+                },
+                expected: rates.expected.unwrap_or(f64::NAN),
+                verdict: match rates.pass {
+                    Some(true) => "pass".to_string(),
+                    Some(false) => "fail".to_string(),
+                    None => crate::output::MISSING.to_string(),
+                },
+            })
+        })
+        .collect();
+    let rates_csv = out.join("rates.csv");
+    write_csv_atomic(&rates_csv, &rate_rows)?;
+    written.push(rates_csv);
     let summary = Summary {
         case,
         origin,
@@ -166,7 +248,7 @@ pub fn write_reports(
     write_json_atomic(&json, &summary)?;
     written.push(json);
     for study in studies {
-        let path = out.join(format!("{}-l{}.svg", study.kind.name(), study.degree));
+        let path = out.join(plot_name(study));
         // a component without any value (the velocity error of a k-study) is left out, and
         // with it its legend entry; `loglog_svg` skips single points without a value
         let series: Vec<Series> = ErrorComponents::NAMES
@@ -203,6 +285,27 @@ pub fn write_reports(
         loglog_svg(&path, &title, study.variable, "error", &series, &references)?;
         written.push(path);
     }
+    let heads: Vec<StudyHead> = studies
+        .iter()
+        .map(|study| StudyHead {
+            kind: study.kind.name(),
+            degree: study.degree,
+            variable: study.variable,
+            expected: study.expected_rate,
+            pass: study.pass,
+            plot: plot_name(study),
+        })
+        .collect();
+    let md = out.join("report.md");
+    let text = tables::markdown(case, origin, dim, RATE_TOLERANCE, &heads, &rows, &rate_rows);
+    write_atomic(&md, text.as_bytes())?;
+    written.push(md);
+    let tex = out.join("tables.tex");
+    write_atomic(
+        &tex,
+        tables::latex(case, &heads, &rows, &rate_rows).as_bytes(),
+    )?;
+    written.push(tex);
     Ok(written)
 }
 
@@ -253,7 +356,7 @@ mod tests {
     fn reports_of_a_k_study_have_no_nan_and_no_velocity_curve() {
         let scratch = tempfile::tempdir().unwrap();
         let written = write_reports(scratch.path(), "test", "inline", 2, &[k_study()]).unwrap();
-        assert_eq!(written.len(), 3);
+        assert_eq!(written.len(), 6);
         for path in &written {
             let text = std::fs::read_to_string(path).unwrap();
             assert!(
@@ -285,5 +388,123 @@ mod tests {
         assert_eq!(study["runs"][0]["stats"]["max_newton_iterations"], 2);
         assert_eq!(study["rates"][5]["component"], "velocity");
         assert!(study["rates"][5]["least_squares"].is_null());
+    }
+
+    /// A CSV cell as printed in report.md (`missing` = `—`) or tables.tex (`missing` = `--`).
+    fn printed(cell: &str, missing: &str, rate: bool) -> String {
+        match cell.parse::<f64>() {
+            Ok(v) if rate => format!("{v:.3}"),
+            Ok(v) => format!("{v:.3e}"),
+            Err(_) => {
+                assert_eq!(cell, "—");
+                missing.to_string()
+            }
+        }
+    }
+
+    #[test]
+    fn report_md_and_tables_tex_hold_the_rows_of_the_csv_files() {
+        let scratch = tempfile::tempdir().unwrap();
+        let mut h_study = k_study();
+        h_study.kind = StudyKind::H;
+        h_study.variable = "h";
+        for (i, run) in h_study.runs.iter_mut().enumerate() {
+            run.errors.velocity = 0.3 * run.k * (1.0 + 0.2 * i as f64);
+            run.stats.max_velocity_kkt = 1e-12 * (i + 1) as f64;
+        }
+        h_study.rates = rates(&h_study.runs, |r| r.k, 1.0);
+        write_reports(
+            scratch.path(),
+            "test_case",
+            "inline",
+            2,
+            &[k_study(), h_study],
+        )
+        .unwrap();
+        let md = std::fs::read_to_string(scratch.path().join("report.md")).unwrap();
+        let tex = std::fs::read_to_string(scratch.path().join("tables.tex")).unwrap();
+        assert!(md.contains("![k-study, l = 1](k-l1.svg)") && md.contains("(h-l1.svg)"));
+        assert!(tex.contains("\\toprule") && tex.contains("\\bottomrule"));
+        assert!(tex.contains("test\\_case"));
+
+        let read = |name: &str| {
+            let text = std::fs::read_to_string(scratch.path().join(name)).unwrap();
+            let mut reader = csv::Reader::from_reader(text.as_bytes());
+            let header = reader.headers().unwrap().clone();
+            let records: Vec<csv::StringRecord> = reader.records().map(|r| r.unwrap()).collect();
+            (header, records)
+        };
+        let (header, records) = read("errors.csv");
+        assert_eq!(records.len(), 6);
+        let column = |name: &str| header.iter().position(|h| h == name).unwrap();
+        for record in &records {
+            for (missing, text, separator, end) in
+                [("—", &md, " | ", " |"), ("--", &tex, " & ", " \\\\")]
+            {
+                let mut cells = vec![
+                    record[column("cells")].to_string(),
+                    record[column("steps")].to_string(),
+                ];
+                for name in [
+                    "h",
+                    "k",
+                    "displacement",
+                    "difference_quotient",
+                    "damage",
+                    "damage_gradient",
+                    "total",
+                    "velocity",
+                    "max_velocity_kkt",
+                    "max_damage_kkt",
+                ] {
+                    cells.push(printed(&record[column(name)], missing, false));
+                }
+                let line = cells.join(separator) + end;
+                assert!(text.contains(&line), "{line} not in\n{text}");
+            }
+        }
+        let (header, records) = read("rates.csv");
+        assert_eq!(records.len(), 12);
+        let column = |name: &str| header.iter().position(|h| h == name).unwrap();
+        for record in &records {
+            for (missing, text, separator) in [("—", &md, " | "), ("--", &tex, " & ")] {
+                let pairwise: Vec<String> = record[column("pairwise")]
+                    .split(';')
+                    .map(|r| printed(r, missing, true))
+                    .collect();
+                let low = printed(&record[column("ci95_low")], missing, true);
+                let high = printed(&record[column("ci95_high")], missing, true);
+                let interval = if low == missing {
+                    missing.to_string()
+                } else {
+                    format!("[{low}, {high}]")
+                };
+                let drifting = match &record[column("drifting")] {
+                    "—" => missing.to_string(),
+                    other => other.to_string(),
+                };
+                let verdict = match &record[column("verdict")] {
+                    "—" => missing.to_string(),
+                    other => other.to_string(),
+                };
+                let component = if missing == "--" {
+                    record[column("component")].replace('_', "\\_")
+                } else {
+                    record[column("component")].to_string()
+                };
+                let line = [
+                    component,
+                    pairwise.join(", "),
+                    printed(&record[column("least_squares")], missing, true),
+                    printed(&record[column("standard_error")], missing, true),
+                    interval,
+                    drifting,
+                    printed(&record[column("expected")], missing, true),
+                    verdict,
+                ]
+                .join(separator);
+                assert!(text.contains(&line), "{line} not in\n{text}");
+            }
+        }
     }
 }

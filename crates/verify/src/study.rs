@@ -164,6 +164,16 @@ pub struct ComponentRates {
     /// of them have a positive finite error).
     #[serde(serialize_with = "finite_or_null")]
     pub least_squares: f64,
+    /// Standard error of that slope (see [`SlopeFit`]; not finite with fewer than three points).
+    #[serde(serialize_with = "finite_or_null")]
+    pub standard_error: f64,
+    /// The 95 % confidence interval of the slope, slope ± t_{0.975, n−2} × standard error
+    /// (Student's t; not finite with fewer than three points).
+    #[serde(serialize_with = "finite_or_null_each")]
+    pub interval_95: Vec<f64>,
+    /// True when the pairwise rates over the fitted levels are not yet in the asymptotic range
+    /// ([`is_drifting`]); None with fewer than two pairwise rates there.
+    pub drifting: Option<bool>,
     /// Expected rate (None for quantities the theorem does not bound).
     pub expected: Option<f64>,
     /// The verdict: None for a quantity the theorem does not bound (it is not judged, whether it
@@ -207,20 +217,93 @@ pub fn expected_h_rate(degree: usize) -> f64 {
 
 /// Least-squares slope of log(error) against log(size).
 pub fn least_squares_slope(points: &[(f64, f64)]) -> f64 {
+    slope_fit(points).slope
+}
+
+/// The least-squares line through (log size, log error) with the uncertainty of its slope.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SlopeFit {
+    /// The slope (NaN with fewer than two usable points).
+    pub slope: f64,
+    /// Its standard error √(Σ r_i² / (n − 2) / Σ (x_i − x̄)²), r_i the residuals of the line
+    /// (NaN with fewer than three points: two points leave no residual to estimate it from).
+    pub standard_error: f64,
+    /// Half-width of the 95 % interval, t_{0.975, n−2} × standard error.
+    pub half_width_95: f64,
+}
+
+/// t_{0.975, ν} of Student's t distribution for ν = 1 … 10 degrees of freedom.
+const STUDENT_T_975: [f64; 10] = [
+    12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228,
+];
+
+/// t_{0.975, ν}: the table for ν ≤ 10, 2.0 (a slight overestimate of 1.96–2.2) above.
+pub fn student_t_975(degrees_of_freedom: usize) -> f64 {
+    match degrees_of_freedom {
+        0 => f64::NAN,
+        nu if nu <= STUDENT_T_975.len() => STUDENT_T_975[nu - 1],
+        _ => 2.2,
+    }
+}
+
+/// The least-squares fit of log(error) against log(size), points with a non-positive or
+/// non-finite value left out.
+pub fn slope_fit(points: &[(f64, f64)]) -> SlopeFit {
     let logs: Vec<(f64, f64)> = points
         .iter()
-        .filter(|(s, e)| *s > 0.0 && *e > 0.0 && e.is_finite())
+        .filter(|(s, e)| *s > 0.0 && *e > 0.0 && e.is_finite() && s.is_finite())
         .map(|(s, e)| (s.ln(), e.ln()))
         .collect();
     let n = logs.len() as f64;
     if logs.len() < 2 {
-        return f64::NAN;
+        return SlopeFit {
+            slope: f64::NAN,
+            standard_error: f64::NAN,
+            half_width_95: f64::NAN,
+        };
     }
     let mean_x = logs.iter().map(|p| p.0).sum::<f64>() / n;
     let mean_y = logs.iter().map(|p| p.1).sum::<f64>() / n;
     let sxy: f64 = logs.iter().map(|(x, y)| (x - mean_x) * (y - mean_y)).sum();
     let sxx: f64 = logs.iter().map(|(x, _)| (x - mean_x).powi(2)).sum();
-    sxy / sxx
+    let slope = sxy / sxx;
+    let (standard_error, half_width_95) = if logs.len() < 3 {
+        (f64::NAN, f64::NAN)
+    } else {
+        let residuals: f64 = logs
+            .iter()
+            .map(|(x, y)| (y - mean_y - slope * (x - mean_x)).powi(2))
+            .sum();
+        let se = (residuals / (n - 2.0) / sxx).sqrt();
+        (se, student_t_975(logs.len() - 2) * se)
+    };
+    SlopeFit {
+        slope,
+        standard_error,
+        half_width_95,
+    }
+}
+
+/// Largest spread of the pairwise rates over the fitted levels that still counts as the
+/// asymptotic range: [`RATE_TOLERANCE`].
+pub const DRIFT_TOLERANCE: f64 = RATE_TOLERANCE;
+
+/// The drift rule: the pairwise rates between consecutive levels of the fit (the finest
+/// [`FIT_LEVELS`] levels) are "drifting" — not yet in the asymptotic range — when they differ
+/// by more than [`DRIFT_TOLERANCE`] (max − min). None with fewer than two finite pairwise
+/// rates there. The flag informs; it does not change the verdict.
+pub fn is_drifting(pairwise_in_fit: &[f64]) -> Option<bool> {
+    let finite: Vec<f64> = pairwise_in_fit
+        .iter()
+        .copied()
+        .filter(|r| r.is_finite())
+        .collect();
+    if finite.len() < 2 {
+        return None;
+    }
+    let max = finite.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let min = finite.iter().copied().fold(f64::INFINITY, f64::min);
+    Some(max - min > DRIFT_TOLERANCE)
 }
 
 /// Rates of all components over runs, against the size `size(run)` (h or k).
@@ -237,12 +320,14 @@ pub fn rates(
                 .iter()
                 .map(|r| (size(r), r.errors.values()[c]))
                 .collect();
-            let pairwise = points
+            let pairwise: Vec<f64> = points
                 .windows(2)
                 .map(|w| (w[0].1 / w[1].1).ln() / (w[0].0 / w[1].0).ln())
                 .collect();
             let fit = &points[points.len().saturating_sub(FIT_LEVELS)..];
-            let least_squares = least_squares_slope(fit);
+            let line = slope_fit(fit);
+            let least_squares = line.slope;
+            let drifting = is_drifting(&pairwise[pairwise.len().saturating_sub(FIT_LEVELS - 1)..]);
             // Theorem 5.2 bounds the four terms of E(h, k) and their sum, not the velocity error
             let bounded = *name != "velocity";
             let pass = bounded.then(|| {
@@ -252,6 +337,12 @@ pub fn rates(
                 component: name.to_string(),
                 pairwise,
                 least_squares,
+                standard_error: line.standard_error,
+                interval_95: vec![
+                    least_squares - line.half_width_95,
+                    least_squares + line.half_width_95,
+                ],
+                drifting,
                 expected: bounded.then_some(expected),
                 pass,
             }
@@ -511,6 +602,35 @@ mod tests {
         assert!(!total.is_missing());
         assert!((total.least_squares - 1.0).abs() < 1e-12);
         assert_eq!(total.pass, Some(true));
+    }
+
+    #[test]
+    fn the_slope_has_a_standard_error_and_a_drift_flag() {
+        // e = h exactly: slope 1, no residual, no drift
+        let exact = slope_fit(&[(0.4, 0.4), (0.2, 0.2), (0.1, 0.1)]);
+        assert!((exact.slope - 1.0).abs() < 1e-12 && exact.standard_error < 1e-12);
+        // log e = log h + (0, δ, 0): residuals (−δ/3, 2δ/3, −δ/3), Σ r² = 2δ²/3, one degree of
+        // freedom, Σ (x − x̄)² = 2 ln² 2, so se = δ/(√3 ln 2)
+        let delta: f64 = 0.1;
+        let bumped = slope_fit(&[(0.4, 0.4), (0.2, 0.2 * delta.exp()), (0.1, 0.1)]);
+        let se = delta / (3f64.sqrt() * 2f64.ln());
+        assert!((bumped.standard_error - se).abs() < 1e-12, "{bumped:?}");
+        assert!((bumped.half_width_95 - 12.706 * se).abs() < 1e-12);
+        assert!(slope_fit(&[(0.2, 0.2), (0.1, 0.1)]).standard_error.is_nan());
+        // pairwise rates 1 ± δ/ln 2 spread by 2δ/ln 2 = 0.29 > 0.15: drifting
+        let runs: Vec<RunResult> = [(0.4, 0.4), (0.2, 0.2 * delta.exp()), (0.1, 0.1)]
+            .iter()
+            .map(|&(h, e)| run(h, [e, h, h, h, 4.0 * h, f64::NAN]))
+            .collect();
+        let rates = rates(&runs, |r| r.h, 1.0);
+        assert_eq!(rates[0].drifting, Some(true));
+        assert_eq!(rates[1].drifting, Some(false));
+        assert_eq!(rates[5].drifting, None);
+        // the verdict ignores the flag
+        assert_eq!(rates[0].pass, Some(true));
+        assert!(
+            (rates[0].interval_95[1] - rates[0].interval_95[0] - 2.0 * 12.706 * se).abs() < 1e-9
+        );
     }
 
     #[test]
