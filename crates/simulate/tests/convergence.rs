@@ -60,7 +60,8 @@ fn three_levels_give_consistent_gci_files() {
     for (i, level) in levels.iter().enumerate() {
         assert_eq!(level["steps"], 50 << i);
         assert_eq!(level["cells"], serde_json::json!([8 << i, 4 << i]));
-        assert!(level["max_kkt"][0].as_f64().unwrap() < 1e-8);
+        assert!(level["max_kkt"]["velocity"].as_f64().unwrap() < 1e-8);
+        assert!(level["max_kkt"]["damage"].as_f64().unwrap() < 1e-8);
     }
 
     // convergence.csv: one row per quantity, values equal to the histories at the step of t
