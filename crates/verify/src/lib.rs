@@ -11,6 +11,7 @@
 //! - [`errors`]: the components of E(h, k) of Theorem 5.2;
 //! - [`study`]: h-, k- and diagonal studies with rates and verdicts;
 //! - [`report`]: CSV, JSON and SVG reports;
+//! - [`sweep`]: plan / run one / merge / resume: manifests, the results cache, job arrays;
 //! - [`cli`]: the `verify` command line.
 
 pub mod case;
@@ -20,6 +21,7 @@ pub mod manufactured;
 pub mod plot;
 pub mod report;
 pub mod study;
+pub mod sweep;
 
 /// The error type of the harness: that of the input layer (case-file errors are
 /// [`FileKind::Case`](contact_input::FileKind::Case)).
