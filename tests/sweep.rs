@@ -381,3 +381,58 @@ fn a_bad_manifest_index_or_shard_gets_a_clear_error() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The runs of the sweep (each stored in its file, the k-levels against the stored states of
+/// their reference run) give exactly the errors of the in-memory studies of `verify::study`.
+#[test]
+fn the_stored_runs_give_the_errors_of_the_in_memory_studies() {
+    use verify::case::{parse_case_file, Case, LevelStudy, TimeStudy};
+    use verify::study::{level_study, time_study, StudyKind};
+    verify::cli::set_threads(Some(1)).unwrap();
+    let dir = scratch("in-memory");
+    run_ok(verify().args(STUDY).arg("--out").arg(&dir));
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+
+    let (_, text) = verify::cli::BUILT_IN_CASES
+        .iter()
+        .find(|(name, _)| *name == "zones2d")
+        .unwrap();
+    let case = Case::<2>::new(parse_case_file(text, "zones2d").unwrap(), "zones2d").unwrap();
+    let level = |cells: &[usize], steps: &[usize]| LevelStudy {
+        cells: cells.to_vec(),
+        steps: steps.to_vec(),
+    };
+    let k = &case.file.studies["order1"].k.clone().unwrap();
+    let in_memory = [
+        level_study(&case, 1, StudyKind::H, &level(&[4, 8], &[2, 8])).unwrap(),
+        time_study(
+            &case,
+            1,
+            &TimeStudy {
+                cells: k.cells,
+                steps: k.steps[..2].to_vec(),
+                reference_steps: k.reference_steps,
+            },
+        )
+        .unwrap(),
+        level_study(&case, 1, StudyKind::Diagonal, &level(&[4, 8], &[2, 4])).unwrap(),
+    ];
+    let studies = summary["studies"].as_array().unwrap();
+    assert_eq!(studies.len(), 3);
+    for (study, json) in in_memory.iter().zip(studies) {
+        assert_eq!(json["kind"], study.kind.name());
+        assert_eq!(json["pass"], study.pass);
+        for (run, stored) in study.runs.iter().zip(json["runs"].as_array().unwrap()) {
+            assert_eq!(stored["steps"], run.steps);
+            for (name, value) in verify::errors::ErrorComponents::NAMES
+                .iter()
+                .zip(run.errors.values())
+            {
+                let stored = stored["errors"][name].as_f64();
+                assert_eq!(stored, value.is_finite().then_some(value), "{name}");
+            }
+        }
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -507,7 +507,12 @@ mod tests {
         let more = plan(ZONES, "more", 1, &all(), Some(3)).unwrap();
         for run in &a.runs {
             let digest = &more.run(&run.id).unwrap().digest;
-            assert_eq!(digest == &run.digest, run.kind == RunKind::Exact, "{}", run.id);
+            assert_eq!(
+                digest == &run.digest,
+                run.kind == RunKind::Exact,
+                "{}",
+                run.id
+            );
         }
         let changed = ZONES.replacen("final_time = ", "final_time = 2.0\n# was ", 1);
         let c = plan(&changed, "c", 1, &all(), Some(2)).unwrap();
