@@ -111,7 +111,7 @@ fn shards_run_in_parallel_then_merged_give_the_reports_of_a_single_process_run()
             .arg("--manifest")
             .arg(&manifest),
     );
-    assert!(planned.contains("6 runs"), "{planned}");
+    assert!(planned.contains("\nruns: 6\n"), "{planned}");
     // the manifest is the single-process run's own
     assert_eq!(
         std::fs::read_to_string(&manifest).unwrap(),
@@ -434,5 +434,81 @@ fn the_stored_runs_give_the_errors_of_the_in_memory_studies() {
             }
         }
     }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A stand-in for Slurm's `sbatch` (Slurm is not installed here): it logs its arguments, runs
+/// the job at once — each task of an `--array=A-B` in turn, with `SLURM_ARRAY_TASK_ID` set —
+/// and prints a job id as `--parsable` does (1000 + the number of submissions so far).
+const FAKE_SBATCH: &str = r#"#!/bin/bash
+array=""
+script=""
+for arg in "$@"; do
+  case "$arg" in
+    --array=*) array=${arg#--array=} ;;
+    --*) ;;
+    *) script=$arg ;;
+  esac
+done
+echo "sbatch $*" >> "$SBATCH_LOG"
+if [ -n "$array" ]; then
+  for ((i = ${array%-*}; i <= ${array#*-}; i++)); do
+    SLURM_ARRAY_TASK_ID=$i bash "$script" >> "$SBATCH_LOG" 2>&1 || exit 1
+  done
+else
+  bash "$script" >> "$SBATCH_LOG" 2>&1 || exit 1
+fi
+echo "$((1000 + $(grep -c '^sbatch ' "$SBATCH_LOG")));cluster"
+"#;
+
+#[test]
+fn the_slurm_scripts_run_every_run_as_an_array_task_then_merge() {
+    let dir = scratch("slurm");
+    let bin = dir.join("bin");
+    std::fs::create_dir_all(&bin).unwrap();
+    let sbatch = bin.join("sbatch");
+    std::fs::write(&sbatch, FAKE_SBATCH).unwrap();
+    {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::set_permissions(&sbatch, std::fs::Permissions::from_mode(0o755)).unwrap();
+    }
+    let log = dir.join("sbatch.log");
+    std::fs::write(&log, "").unwrap();
+    let submit = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../docs/cluster/submit.sh");
+    let study = dir.join("study");
+    let path = format!(
+        "{}:{}",
+        bin.display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    let stdout = run_ok(
+        Command::new("bash")
+            .arg(&submit)
+            .arg(&study)
+            .args(STUDY)
+            .env("PATH", path)
+            .env("VERIFY", env!("CARGO_BIN_EXE_verify"))
+            .env("SBATCH_LOG", &log)
+            .env("CI", "1")
+            .env("SLURM_CPUS_PER_TASK", "1"),
+    );
+    let log = std::fs::read_to_string(&log).unwrap();
+    println!("{stdout}\n{log}");
+    assert!(stdout.contains("6 runs in job array"), "{stdout}");
+    // the array covers the runs; the merge job depends on the array's id
+    let submissions: Vec<&str> = log.lines().filter(|l| l.starts_with("sbatch ")).collect();
+    assert_eq!(submissions.len(), 2, "{log}");
+    assert!(submissions[0].contains("--array=0-5"), "{log}");
+    let array_id = 1001; // the fake's id of the first submission
+    assert!(
+        submissions[1].contains(&format!("--dependency=afterok:{array_id}")),
+        "{log}"
+    );
+    // six tasks, each a run of its own; the task of the k-study's reference finds it stored
+    // when a level before it needed it (one task per run either way)
+    let tasks = log.matches("cached: ").count();
+    assert_eq!(tasks, 6, "{log}");
+    assert!(log.contains("verdict: PASS"), "{log}");
+    assert!(study.join("summary.json").exists() && study.join("errors.csv").exists());
     std::fs::remove_dir_all(&dir).ok();
 }

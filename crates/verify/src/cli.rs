@@ -401,10 +401,11 @@ pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
             write_manifest(&path, &planned)?;
             let cost: f64 = planned.runs.iter().map(|r| r.cost).sum();
             println!(
-                "wrote {}: {} runs (estimated cost {cost:.3e} unknowns × steps)",
-                path.display(),
-                planned.runs.len()
+                "wrote {} (estimated cost {cost:.3e} unknowns × steps)",
+                path.display()
             );
+            // for scripts: the size of a job array
+            println!("runs: {}", planned.runs.len());
             Ok(true)
         }
         Some(Command::Run {
