@@ -1,13 +1,16 @@
 //! The `verify` command line: runs the studies of a case and writes its reports.
 
-use crate::case::{parse_case_file, read_case_file, Case, CaseFile};
+use crate::case::{parse_case_file, Case, CaseFile};
 use crate::output::format_or_dash;
-use crate::report::write_reports;
-use crate::study::{level_study, time_study, StudyKind, StudyResult};
+use crate::study::StudyResult;
+use crate::sweep::merge::{merge, write_study_reports};
+use crate::sweep::plan::{plan, read_manifest, write_manifest, Manifest};
+use crate::sweep::run::{execute, Executed};
+use crate::sweep::shard::{parse_shard, shard};
 use crate::VerifyError;
 use clap::Parser;
 pub use contact_input::threads::{max_threads, set_threads};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Built-in cases: (name, TOML text). The files live in `verification/`.
 pub const BUILT_IN_CASES: [(&str, &str); 13] = [
@@ -48,9 +51,32 @@ pub const BUILT_IN_CASES: [(&str, &str); 13] = [
 ];
 
 /// Manufactured-solution convergence verification of the contact-damage scheme (Theorem 5.2).
+///
+/// Without a subcommand, runs the studies in this process, keeping every run's result in
+/// `<out>/runs/` so that an interrupted study resumes where it stopped. `plan`, `run` and
+/// `merge` split a study into independent runs for a cluster's scheduler.
 #[derive(Debug, Parser)]
-#[command(name = "verify", version, about)]
+#[command(
+    name = "verify",
+    version,
+    about,
+    args_conflicts_with_subcommands = true
+)]
 pub struct Cli {
+    /// plan / run / merge (without one: the whole study in this process).
+    #[command(subcommand)]
+    pub command: Option<Command>,
+    /// The study and its options.
+    #[command(flatten)]
+    pub study: StudyArgs,
+    /// Ignore the results cache `<out>/runs/`: recompute every run.
+    #[arg(long)]
+    pub fresh: bool,
+}
+
+/// The options that select a study (of a single-process run and of `verify plan`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct StudyArgs {
     /// Polynomial degree l of the finite elements (1 or 2).
     #[arg(long, default_value_t = 1)]
     pub order: usize,
@@ -76,6 +102,53 @@ pub struct Cli {
     /// memory of the machine).
     #[arg(long, value_name = "GiB")]
     pub memory_limit: Option<f64>,
+}
+
+/// The subcommands for studies beyond one process.
+#[derive(Debug, clap::Subcommand)]
+pub enum Command {
+    /// Writes the manifest of every run of a study (same options as a single-process run).
+    Plan {
+        /// The study and its options.
+        #[command(flatten)]
+        study: StudyArgs,
+        /// The manifest to write (default: `<out>/manifest.json`).
+        #[arg(long)]
+        manifest: Option<PathBuf>,
+    },
+    /// Runs one run (`--index`) or a share of the runs (`--shard I/N`) of a manifest.
+    Run {
+        /// The manifest written by `verify plan`.
+        #[arg(long)]
+        manifest: PathBuf,
+        /// The index of the run (0 ..= runs − 1; e.g. `$SLURM_ARRAY_TASK_ID`).
+        #[arg(long, conflicts_with = "shard", required_unless_present = "shard")]
+        index: Option<usize>,
+        /// Share I of N (0 ≤ I < N), balanced by estimated cost.
+        #[arg(long)]
+        shard: Option<String>,
+        /// The results folder (default: `runs/` beside the manifest).
+        #[arg(long)]
+        results: Option<PathBuf>,
+        /// Recompute the runs even when they have a valid result.
+        #[arg(long)]
+        fresh: bool,
+        /// Worker threads, 1 ..= 4 × the available cores (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+    },
+    /// Merges the results of a manifest into the reports of a single-process run.
+    Merge {
+        /// The manifest written by `verify plan`.
+        #[arg(long)]
+        manifest: PathBuf,
+        /// The results folder (default: `runs/` beside the manifest).
+        #[arg(long)]
+        results: Option<PathBuf>,
+        /// Where to write the reports (default: the manifest's folder).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
 }
 
 /// The names of `--studies`.
@@ -123,11 +196,12 @@ pub fn check_out(out: &std::path::Path) -> Result<(), VerifyError> {
     Ok(())
 }
 
-/// Loads the case named on the command line (or the default one for the dimension).
-pub fn load_case(cli: &Cli) -> Result<(CaseFile, String), VerifyError> {
-    let name = match &cli.case {
+/// The text and origin of the case named on the command line (or the default one for the
+/// dimension).
+pub fn load_case(args: &StudyArgs) -> Result<(String, String), VerifyError> {
+    let name = match &args.case {
         Some(name) => name.clone(),
-        None => match cli.dim {
+        None => match args.dim {
             2 => "zones2d".to_string(),
             3 => "zones3d".to_string(),
             other => {
@@ -138,66 +212,12 @@ pub fn load_case(cli: &Cli) -> Result<(CaseFile, String), VerifyError> {
         },
     };
     if let Some((builtin, text)) = BUILT_IN_CASES.iter().find(|(n, _)| *n == name) {
-        let origin = format!("built-in:{builtin}");
-        return Ok((parse_case_file(text, &origin)?, origin));
+        return Ok((text.to_string(), format!("built-in:{builtin}")));
     }
     let path = PathBuf::from(&name);
-    Ok((read_case_file(&path)?, path.display().to_string()))
-}
-
-fn truncate<T: Clone>(values: &[T], levels: Option<usize>) -> Vec<T> {
-    match levels {
-        Some(n) => values[..n.min(values.len())].to_vec(),
-        None => values.to_vec(),
-    }
-}
-
-/// Runs the requested studies of a case in dimension D.
-pub fn run_studies<const D: usize>(
-    case: &Case<D>,
-    cli: &Cli,
-) -> Result<Vec<StudyResult>, VerifyError> {
-    let key = format!("order{}", cli.order);
-    let set = case.file.studies.get(&key).ok_or_else(|| {
-        VerifyError::InvalidInput(format!(
-            "case `{}` defines no studies for l = {} (no [studies.{key}])",
-            case.origin, cli.order
-        ))
-    })?;
-    let mut results = Vec::new();
-    for name in &cli.studies {
-        match name.as_str() {
-            "h" => {
-                if let Some(study) = &set.h {
-                    let mut study = study.clone();
-                    study.cells = truncate(&study.cells, cli.levels);
-                    study.steps = truncate(&study.steps, cli.levels);
-                    results.push(level_study(case, cli.order, StudyKind::H, &study)?);
-                }
-            }
-            "diagonal" => {
-                if let Some(study) = &set.diagonal {
-                    let mut study = study.clone();
-                    study.cells = truncate(&study.cells, cli.levels);
-                    study.steps = truncate(&study.steps, cli.levels);
-                    results.push(level_study(case, cli.order, StudyKind::Diagonal, &study)?);
-                }
-            }
-            "k" => {
-                if let Some(study) = &set.k {
-                    let mut study = study.clone();
-                    study.steps = truncate(&study.steps, cli.levels);
-                    results.push(time_study(case, cli.order, &study)?);
-                }
-            }
-            other => {
-                return Err(VerifyError::InvalidInput(format!(
-                    "unknown study `{other}` (use h, k, diagonal)"
-                )))
-            }
-        }
-    }
-    Ok(results)
+    let text = std::fs::read_to_string(&path)
+        .map_err(|e| VerifyError::io("reading case file", &path, e))?;
+    Ok((text, path.display().to_string()))
 }
 
 /// `value` in scientific notation with `precision` digits, or `—` when it has no value.
@@ -289,17 +309,17 @@ pub fn print_study(study: &StudyResult) {
     println!("\n{}", study_table(study));
 }
 
-/// Runs the command line; returns whether every verdict passed.
-pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
-    if !(1..=2).contains(&cli.order) {
+/// Checks the options of a study, then plans it; returns the manifest and the report folder.
+fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), VerifyError> {
+    if !(1..=2).contains(&args.order) {
         return Err(VerifyError::InvalidInput(format!(
             "--order must be 1 or 2, got {}",
-            cli.order
+            args.order
         )));
     }
-    set_threads(cli.threads)?;
-    check_studies(&cli.studies)?;
-    let memory_limit = match cli.memory_limit {
+    set_threads(args.threads)?;
+    check_studies(&args.studies)?;
+    let memory_limit = match args.memory_limit {
         None => contact_damage::memory::default_limit(),
         Some(gib) if gib.is_finite() && gib > 0.0 => gib * contact_damage::memory::GIB,
         Some(gib) => {
@@ -308,48 +328,186 @@ pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
             )))
         }
     };
-    let (file, origin) = load_case(&cli)?;
-    let name = file.name.clone();
-    let dim = file.dim;
-    let out = cli.out.clone().unwrap_or_else(|| {
+    let (text, origin) = load_case(args)?;
+    // the case is validated in full (laws, exact fields) and its studies are checked against
+    // the memory before anything is planned or created
+    let file = parse_case_file(&text, &origin)?;
+    with_case(file.clone(), &origin, |case| {
+        let (order, studies, levels) = (args.order, &args.studies, args.levels);
+        match case {
+            CaseRef::Two(case) => {
+                crate::budget::check_studies(case, order, studies, levels, memory_limit)
+            }
+            CaseRef::Three(case) => {
+                crate::budget::check_studies(case, order, studies, levels, memory_limit)
+            }
+        }
+    })?;
+    let manifest = plan(&text, &origin, args.order, &args.studies, args.levels)?;
+    let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from("reports")
-            .join(&name)
-            .join(format!("l{}", cli.order))
+            .join(&file.name)
+            .join(format!("l{}", args.order))
     });
-    let started = std::time::Instant::now();
-    // the case is validated before the output folder is created
-    let studies = match dim {
-        2 => {
-            let case = Case::<2>::new(file, &origin)?;
-            crate::budget::check_studies(&case, cli.order, &cli.studies, cli.levels, memory_limit)?;
-            check_out(&out)?;
-            run_studies(&case, &cli)?
+    Ok((manifest, out))
+}
+
+/// Builds the case of dimension 2 or 3 and calls `work` with it.
+fn with_case<T>(
+    file: CaseFile,
+    origin: &str,
+    work: impl FnOnce(CaseRef<'_>) -> Result<T, VerifyError>,
+) -> Result<T, VerifyError> {
+    match file.dim {
+        2 => work(CaseRef::Two(&Case::<2>::new(file, origin)?)),
+        3 => work(CaseRef::Three(&Case::<3>::new(file, origin)?)),
+        other => Err(VerifyError::InvalidInput(format!(
+            "{origin}: dim must be 2 or 3, got {other}"
+        ))),
+    }
+}
+
+/// A case of dimension 2 or 3.
+enum CaseRef<'a> {
+    Two(&'a Case<2>),
+    Three(&'a Case<3>),
+}
+
+/// Runs the runs `selection` of `manifest` that `results` does not hold yet ([`execute`]).
+fn execute_manifest(
+    manifest: &Manifest,
+    selection: &[usize],
+    results: &Path,
+    fresh: bool,
+) -> Result<Executed, VerifyError> {
+    let file = parse_case_file(&manifest.case_text, &manifest.origin)?;
+    with_case(file, &manifest.origin, |case| match case {
+        CaseRef::Two(case) => execute(case, manifest, selection, results, fresh),
+        CaseRef::Three(case) => execute(case, manifest, selection, results, fresh),
+    })
+}
+
+/// The results folder: `results`, or `runs/` beside the manifest.
+fn results_folder(manifest: &Path, results: Option<PathBuf>) -> PathBuf {
+    results.unwrap_or_else(|| manifest.parent().unwrap_or(Path::new("")).join("runs"))
+}
+
+/// Merges the results of `manifest`, prints the tables and writes the reports into `out`;
+/// returns whether every run has a result and every verdict passed.
+fn merge_and_report(manifest: &Manifest, results: &Path, out: &Path) -> Result<bool, VerifyError> {
+    let merged = merge(manifest, results)?;
+    if !merged.problems.is_empty() {
+        println!(
+            "{} runs without a valid result (run them with `verify run`, then merge again):",
+            merged.problems.len()
+        );
+        for problem in &merged.problems {
+            println!("  {problem}");
         }
-        3 => {
-            let case = Case::<3>::new(file, &origin)?;
-            crate::budget::check_studies(&case, cli.order, &cli.studies, cli.levels, memory_limit)?;
-            check_out(&out)?;
-            run_studies(&case, &cli)?
-        }
-        other => {
-            return Err(VerifyError::InvalidInput(format!(
-                "{origin}: dim must be 2 or 3, got {other}"
-            )))
-        }
-    };
-    for study in &studies {
+        println!("no reports written");
+        println!("verdict: INCOMPLETE");
+        return Ok(false);
+    }
+    for study in &merged.studies {
         print_study(study);
     }
-    let written = write_reports(&out, &name, &origin, dim, &studies)?;
+    let written = write_study_reports(out, manifest, &merged.studies)?;
     println!(
-        "\ncase {name} ({origin}), d = {dim}, l = {}: {:.1} s",
-        cli.order,
-        started.elapsed().as_secs_f64()
+        "\ncase {} ({}), d = {}, l = {}",
+        manifest.case, manifest.origin, manifest.dim, manifest.degree
     );
     for path in written {
         println!("wrote {}", path.display());
     }
-    let pass = studies.iter().all(|s| s.pass);
+    let pass = merged.pass();
     println!("verdict: {}", if pass { "PASS" } else { "FAIL" });
+    Ok(pass)
+}
+
+/// Runs the command line; returns whether every verdict passed.
+pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
+    match cli.command {
+        None => run_in_process(&cli.study, cli.fresh),
+        Some(Command::Plan { study, manifest }) => {
+            let (planned, out) = plan_study(&study)?;
+            let path = manifest.unwrap_or_else(|| out.join("manifest.json"));
+            write_manifest(&path, &planned)?;
+            let cost: f64 = planned.runs.iter().map(|r| r.cost).sum();
+            println!(
+                "wrote {} (estimated cost {cost:.3e} unknowns × steps)",
+                path.display()
+            );
+            // for scripts: the size of a job array
+            println!("runs: {}", planned.runs.len());
+            Ok(true)
+        }
+        Some(Command::Run {
+            manifest,
+            index,
+            shard: share,
+            results,
+            fresh,
+            threads,
+        }) => {
+            set_threads(threads)?;
+            let planned = read_manifest(&manifest)?;
+            let selection = match (index, share) {
+                (Some(index), _) => vec![index],
+                (None, Some(text)) => {
+                    let (i, n) = parse_shard(&text)?;
+                    shard(&planned, i, n)
+                }
+                (None, None) => {
+                    return Err(VerifyError::InvalidInput(
+                        "verify run: give --index I or --shard I/N".to_string(),
+                    ))
+                }
+            };
+            let results = results_folder(&manifest, results);
+            let executed = execute_manifest(&planned, &selection, &results, fresh)?;
+            println!(
+                "cached: {} runs, computed: {} runs (results in {})",
+                executed.cached,
+                executed.computed,
+                results.display()
+            );
+            Ok(true)
+        }
+        Some(Command::Merge {
+            manifest,
+            results,
+            out,
+        }) => {
+            let planned = read_manifest(&manifest)?;
+            let results = results_folder(&manifest, results);
+            let out =
+                out.unwrap_or_else(|| manifest.parent().unwrap_or(Path::new("")).to_path_buf());
+            if !out.as_os_str().is_empty() {
+                check_out(&out)?;
+            }
+            merge_and_report(&planned, &results, &out)
+        }
+    }
+}
+
+/// A whole study in this process: plan (the manifest `<out>/manifest.json`), run the runs that
+/// `<out>/runs/` does not hold yet (all with `fresh`), merge and report.
+fn run_in_process(args: &StudyArgs, fresh: bool) -> Result<bool, VerifyError> {
+    let (manifest, out) = plan_study(args)?;
+    check_out(&out)?;
+    let started = std::time::Instant::now();
+    let path = out.join("manifest.json");
+    write_manifest(&path, &manifest)?;
+    let results = out.join("runs");
+    let all: Vec<usize> = (0..manifest.runs.len()).collect();
+    let executed = execute_manifest(&manifest, &all, &results, fresh)?;
+    println!(
+        "cached: {} runs, computed: {} runs (results in {})",
+        executed.cached,
+        executed.computed,
+        results.display()
+    );
+    let pass = merge_and_report(&manifest, &results, &out)?;
+    println!("{:.1} s", started.elapsed().as_secs_f64());
     Ok(pass)
 }

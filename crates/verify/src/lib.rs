@@ -11,6 +11,7 @@
 //! - [`errors`]: the components of E(h, k) of Theorem 5.2;
 //! - [`study`]: h-, k- and diagonal studies with rates and verdicts;
 //! - [`report`]: CSV, JSON and SVG reports, `report.md` and `tables.tex` ([`tables`]);
+//! - [`sweep`]: plan / run one / merge / resume: manifests, the results cache, job arrays;
 //! - [`cli`]: the `verify` command line.
 
 pub mod budget;
@@ -22,6 +23,7 @@ pub mod plot;
 pub mod report;
 pub mod smoothness;
 pub mod study;
+pub mod sweep;
 pub mod tables;
 
 /// The error type of the harness: that of the input layer (case-file errors are

@@ -10,7 +10,7 @@ use contact_damage::scheme::{RunSummary, Simulation, State};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
 use serde::ser::SerializeMap;
-use serde::{Serialize, Serializer};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
@@ -29,7 +29,7 @@ pub const RATE_TOLERANCE: f64 = 0.15;
 pub const FIT_LEVELS: usize = 3;
 
 /// The kind of a study.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum StudyKind {
     /// Refine h with a time error kept negligible.
@@ -51,26 +51,33 @@ impl StudyKind {
     }
 }
 
-/// Solver statistics of one run.
-#[derive(Debug, Clone, Default, Serialize)]
+/// Solver statistics of one run. It is read back from a result file of the runs cache
+/// ([`crate::sweep`]), where a value without a number (`null`) is read as NaN.
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
 pub struct RunStats {
     /// Unknowns of the velocity step (d × nodes).
     pub velocity_unknowns: usize,
     /// Largest KKT residual of a velocity step.
+    #[serde(deserialize_with = "nan_if_null")]
     pub max_velocity_kkt: f64,
     /// Largest KKT residual of a damage step.
+    #[serde(deserialize_with = "nan_if_null")]
     pub max_damage_kkt: f64,
     /// Outer Newton iterations of the velocity steps (5.1), all steps together.
     pub newton_iterations: usize,
     /// Newton iterations of one velocity step (5.1), mean over the steps
     /// (`newton_iterations / steps`; 0 for a run without steps).
+    #[serde(deserialize_with = "nan_if_null")]
     pub mean_newton_iterations: f64,
     /// Newton iterations of one velocity step (5.1), the most over the steps.
     pub max_newton_iterations: usize,
     /// The relative KKT residual after each Newton iteration of the slowest velocity step (the
     /// first step with `max_newton_iterations` iterations); its last entry is that step's final
     /// residual, below the velocity tolerance. Empty for a run without steps.
-    #[serde(serialize_with = "finite_or_null_each")]
+    #[serde(
+        serialize_with = "finite_or_null_each",
+        deserialize_with = "nan_if_null_each"
+    )]
     pub slowest_newton_history: Vec<f64>,
     /// Semismooth Newton iterations of the friction problems (all steps).
     pub friction_iterations: usize,
@@ -87,6 +94,7 @@ pub struct RunStats {
     /// Steps in which the upper bound β = 1 was active at some node.
     pub steps_with_upper_bound: usize,
     /// Wall time of the run in seconds.
+    #[serde(deserialize_with = "nan_if_null")]
     pub wall_seconds: f64,
 }
 
@@ -116,20 +124,25 @@ impl RunStats {
     }
 }
 
-/// One run of a study.
-#[derive(Debug, Clone, Serialize)]
+/// One run of a study (also the payload of a result file of the runs cache, [`crate::sweep`]).
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RunResult {
     /// Cells per side.
     pub cells: usize,
     /// Mesh size h (largest cell diameter).
+    #[serde(deserialize_with = "nan_if_null")]
     pub h: f64,
     /// Time steps N.
     pub steps: usize,
     /// k = T/N.
+    #[serde(deserialize_with = "nan_if_null")]
     pub k: f64,
     /// Error components (in JSON, a component without a value, e.g. `velocity` against a
     /// discrete reference, is `null`).
-    #[serde(serialize_with = "components_or_null")]
+    #[serde(
+        serialize_with = "components_or_null",
+        deserialize_with = "components_from_nulls"
+    )]
     pub errors: ErrorComponents,
     /// Solver statistics.
     pub stats: RunStats,
@@ -146,6 +159,46 @@ fn components_or_null<S: Serializer>(
         map.serialize_entry(name, &finite(value))?;
     }
     map.end()
+}
+
+/// Reads a number or `null` (NaN): the inverse of `finite_or_null`.
+fn nan_if_null<'de, D: Deserializer<'de>>(deserializer: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(deserializer)?.unwrap_or(f64::NAN))
+}
+
+/// Reads a sequence of numbers or `null`s (NaN): the inverse of `finite_or_null_each`.
+fn nan_if_null_each<'de, D: Deserializer<'de>>(deserializer: D) -> Result<Vec<f64>, D::Error> {
+    Ok(Vec::<Option<f64>>::deserialize(deserializer)?
+        .into_iter()
+        .map(|value| value.unwrap_or(f64::NAN))
+        .collect())
+}
+
+/// Reads the error components written by `components_or_null` (every key of
+/// [`ErrorComponents::NAMES`] required, `null` read as NaN).
+fn components_from_nulls<'de, D: Deserializer<'de>>(
+    deserializer: D,
+) -> Result<ErrorComponents, D::Error> {
+    #[derive(Deserialize)]
+    #[serde(deny_unknown_fields)]
+    struct Nullable {
+        displacement: Option<f64>,
+        difference_quotient: Option<f64>,
+        damage: Option<f64>,
+        damage_gradient: Option<f64>,
+        total: Option<f64>,
+        velocity: Option<f64>,
+    }
+    let n = Nullable::deserialize(deserializer)?;
+    let value = |v: Option<f64>| v.unwrap_or(f64::NAN);
+    Ok(ErrorComponents {
+        displacement: value(n.displacement),
+        difference_quotient: value(n.difference_quotient),
+        damage: value(n.damage),
+        damage_gradient: value(n.damage_gradient),
+        total: value(n.total),
+        velocity: value(n.velocity),
+    })
 }
 
 /// Rates of one error component.
@@ -427,7 +480,8 @@ fn explain_failure<const D: usize>(
     }
 }
 
-fn progress(total: usize, label: &str) -> ProgressBar {
+/// A progress bar of `total` runs (hidden under `CI`).
+pub(crate) fn progress(total: usize, label: &str) -> ProgressBar {
     let bar = ProgressBar::new(total as u64);
     bar.set_style(
         ProgressStyle::with_template(
@@ -471,6 +525,13 @@ pub fn level_study<const D: usize>(
         })
         .collect::<Result<_, _>>()?;
     bar.finish_and_clear();
+    Ok(level_study_result(kind, degree, runs))
+}
+
+/// The result of a level study (h or diagonal) from its runs, coarsest first: the expected
+/// rate (Theorem 5.2; for a diagonal study with k ∝ h^r, min(r, p) with r fitted over the
+/// finest levels), the rates and the verdict.
+pub fn level_study_result(kind: StudyKind, degree: usize, runs: Vec<RunResult>) -> StudyResult {
     // a diagonal study with k ∝ h^r converges like h^min(r, p)
     let expected = match kind {
         StudyKind::Diagonal => {
@@ -482,7 +543,7 @@ pub fn level_study<const D: usize>(
     };
     let rates = rates(&runs, |r| r.h, expected);
     let pass = rates.iter().all(|r| r.pass != Some(false));
-    Ok(StudyResult {
+    StudyResult {
         kind,
         degree,
         variable: "h",
@@ -490,7 +551,7 @@ pub fn level_study<const D: usize>(
         runs,
         rates,
         pass,
-    })
+    }
 }
 
 /// Runs a k-study: a reference run with `reference_steps`, then every level in parallel.
@@ -539,13 +600,22 @@ pub fn time_study<const D: usize>(
         })
         .collect::<Result<_, _>>()?;
     bar.finish_and_clear();
+    Ok(time_study_result(
+        degree,
+        case.file.final_time / study.reference_steps as f64,
+        runs,
+    ))
+}
+
+/// The result of a k-study from its runs, coarsest first, measured against a reference run
+/// with time step `reference_k`: rates in k − k_ref (expected 1, Theorem 5.2) and the verdict.
+pub fn time_study_result(degree: usize, reference_k: f64, runs: Vec<RunResult>) -> StudyResult {
     // The reference carries its own first-order error c·k_ref, so e(k) ≈ c (k − k_ref): the
     // rate is measured against k − k_ref (with k_ref = k_min/8 using k alone would report
     // log2(15/7) ≈ 1.1 for an exactly first-order error between the two finest levels).
-    let reference_k = case.file.final_time / study.reference_steps as f64;
     let rates = rates(&runs, |r| r.k - reference_k, 1.0);
     let pass = rates.iter().all(|r| r.pass != Some(false));
-    Ok(StudyResult {
+    StudyResult {
         kind: StudyKind::K,
         degree,
         variable: "k",
@@ -553,7 +623,7 @@ pub fn time_study<const D: usize>(
         runs,
         rates,
         pass,
-    })
+    }
 }
 
 #[cfg(test)]

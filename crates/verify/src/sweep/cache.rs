@@ -1,0 +1,268 @@
+//! The results folder: one file per run, named by the run's digest (`<digest>.result`), written
+//! atomically, and checked when read.
+//!
+//! A result file is one header line of JSON — the format, the run's digest and id, the length and
+//! the SHA-256 of the payload — followed by the payload: the run's [`RunResult`] as JSON, or,
+//! for the reference run of a k-study, its stored states in binary (little-endian). A file whose
+//! header does not parse, whose digest is not the run's, or whose payload is truncated or does
+//! not match its checksum is invalid: it is reported and recomputed, never merged.
+
+use crate::output::write_atomic;
+use crate::study::RunResult;
+use crate::sweep::plan::{sha256_hex, PlannedRun};
+use crate::VerifyError;
+use contact_damage::scheme::State;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The format tag of a result file.
+pub const RESULT_FORMAT: &str = "verify-result/1";
+
+/// The header line of a result file.
+#[derive(Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Header {
+    format: String,
+    digest: String,
+    id: String,
+    bytes: usize,
+    sha256: String,
+}
+
+/// Why a stored result cannot be used.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Stored<T> {
+    /// A valid result.
+    Valid(T),
+    /// No result file.
+    Missing,
+    /// A result file that is not valid (the reason).
+    Invalid(String),
+}
+
+/// The result file of `run` in `results`.
+pub fn result_path(results: &Path, run: &PlannedRun) -> PathBuf {
+    results.join(format!("{}.result", run.digest))
+}
+
+fn store(results: &Path, run: &PlannedRun, payload: &[u8]) -> Result<(), VerifyError> {
+    let header = Header {
+        format: RESULT_FORMAT.to_string(),
+        digest: run.digest.clone(),
+        id: run.id.clone(),
+        bytes: payload.len(),
+        sha256: sha256_hex(payload),
+    };
+    let mut bytes = serde_json::to_vec(&header).map_err(|e| VerifyError::Serialize {
+        path: result_path(results, run),
+        message: e.to_string(),
+    })?;
+    bytes.push(b'\n');
+    bytes.extend_from_slice(payload);
+    write_atomic(&result_path(results, run), &bytes)
+}
+
+/// Reads the payload of the result file of `run`, checked.
+fn load(results: &Path, run: &PlannedRun) -> Stored<Vec<u8>> {
+    let path = result_path(results, run);
+    let bytes = match std::fs::read(&path) {
+        Ok(bytes) => bytes,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Stored::Missing,
+        Err(e) => return Stored::Invalid(format!("cannot read it: {e}")),
+    };
+    let Some(end) = bytes.iter().position(|&b| b == b'\n') else {
+        return Stored::Invalid("no header line (truncated?)".to_string());
+    };
+    let header: Header = match serde_json::from_slice(&bytes[..end]) {
+        Ok(header) => header,
+        Err(e) => return Stored::Invalid(format!("header: {e}")),
+    };
+    let payload = &bytes[end + 1..];
+    if header.format != RESULT_FORMAT {
+        Stored::Invalid(format!(
+            "format `{}`, expected `{RESULT_FORMAT}`",
+            header.format
+        ))
+    } else if header.digest != run.digest || header.id != run.id {
+        Stored::Invalid(format!(
+            "it is the result of run {} ({}), not of this run",
+            header.id, header.digest
+        ))
+    } else if payload.len() != header.bytes {
+        Stored::Invalid(format!(
+            "payload of {} bytes, the header says {} (truncated?)",
+            payload.len(),
+            header.bytes
+        ))
+    } else if sha256_hex(payload) != header.sha256 {
+        Stored::Invalid("payload does not match its checksum (corrupt)".to_string())
+    } else {
+        Stored::Valid(payload.to_vec())
+    }
+}
+
+/// Stores the result of a run (atomically).
+pub fn store_run(results: &Path, run: &PlannedRun, result: &RunResult) -> Result<(), VerifyError> {
+    let payload = serde_json::to_vec(result).map_err(|e| VerifyError::Serialize {
+        path: result_path(results, run),
+        message: e.to_string(),
+    })?;
+    store(results, run, &payload)
+}
+
+/// Loads the checked result of a run.
+pub fn load_run(results: &Path, run: &PlannedRun) -> Stored<RunResult> {
+    match load(results, run) {
+        Stored::Valid(payload) => match serde_json::from_slice(&payload) {
+            Ok(result) => Stored::Valid(result),
+            Err(e) => Stored::Invalid(format!("payload: {e}")),
+        },
+        Stored::Missing => Stored::Missing,
+        Stored::Invalid(reason) => Stored::Invalid(reason),
+    }
+}
+
+fn push_vector(bytes: &mut Vec<u8>, values: &[f64]) {
+    bytes.extend_from_slice(&(values.len() as u64).to_le_bytes());
+    for value in values {
+        bytes.extend_from_slice(&value.to_le_bytes());
+    }
+}
+
+/// Stores the states of a reference run (binary: count, then per state step, time and the
+/// displacement, velocity and damage vectors with their lengths; all little-endian).
+pub fn store_states(results: &Path, run: &PlannedRun, states: &[State]) -> Result<(), VerifyError> {
+    let mut bytes = Vec::new();
+    bytes.extend_from_slice(&(states.len() as u64).to_le_bytes());
+    for state in states {
+        bytes.extend_from_slice(&(state.step as u64).to_le_bytes());
+        bytes.extend_from_slice(&state.time.to_le_bytes());
+        push_vector(&mut bytes, &state.displacement);
+        push_vector(&mut bytes, &state.velocity);
+        push_vector(&mut bytes, &state.damage);
+    }
+    store(results, run, &bytes)
+}
+
+/// Reads the binary layout of [`store_states`].
+struct Reader<'a> {
+    bytes: &'a [u8],
+}
+
+impl Reader<'_> {
+    fn word(&mut self) -> Option<[u8; 8]> {
+        let (head, rest) = self.bytes.split_first_chunk::<8>()?;
+        self.bytes = rest;
+        Some(*head)
+    }
+
+    fn count(&mut self) -> Option<usize> {
+        usize::try_from(u64::from_le_bytes(self.word()?)).ok()
+    }
+
+    fn vector(&mut self) -> Option<Vec<f64>> {
+        let n = self.count()?;
+        if n > self.bytes.len() / 8 {
+            return None;
+        }
+        (0..n)
+            .map(|_| Some(f64::from_le_bytes(self.word()?)))
+            .collect()
+    }
+
+    fn state(&mut self) -> Option<State> {
+        Some(State {
+            step: self.count()?,
+            time: f64::from_le_bytes(self.word()?),
+            displacement: self.vector()?,
+            velocity: self.vector()?,
+            damage: self.vector()?,
+        })
+    }
+}
+
+/// Loads the checked states of a reference run.
+pub fn load_states(results: &Path, run: &PlannedRun) -> Stored<Vec<State>> {
+    match load(results, run) {
+        Stored::Valid(payload) => {
+            let mut reader = Reader { bytes: &payload };
+            let states = reader
+                .count()
+                .and_then(|n| (0..n).map(|_| reader.state()).collect::<Option<Vec<_>>>());
+            match states {
+                Some(states) if reader.bytes.is_empty() => Stored::Valid(states),
+                _ => Stored::Invalid("payload is not a list of states".to_string()),
+            }
+        }
+        Stored::Missing => Stored::Missing,
+        Stored::Invalid(reason) => Stored::Invalid(reason),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sweep::plan::RunKind;
+
+    fn planned(digest: &str) -> PlannedRun {
+        PlannedRun {
+            index: 0,
+            id: "l1-c2-ref4".to_string(),
+            kind: RunKind::Reference,
+            cells: 2,
+            steps: 4,
+            stride: Some(2),
+            reference: None,
+            cost: 1.0,
+            digest: digest.to_string(),
+            used_by: vec![],
+        }
+    }
+
+    #[test]
+    fn states_round_trip_and_damage_is_detected() {
+        let scratch = tempfile::tempdir().unwrap();
+        let run = planned("abc");
+        let states: Vec<State> = (0..3)
+            .map(|n| State {
+                step: 2 * n,
+                time: 0.1 * n as f64,
+                displacement: vec![1.0 / 3.0, -2.5e-300],
+                velocity: vec![f64::MIN_POSITIVE, 7.0],
+                damage: vec![0.999],
+            })
+            .collect();
+        store_states(scratch.path(), &run, &states).unwrap();
+        let Stored::Valid(back) = load_states(scratch.path(), &run) else {
+            panic!("not valid")
+        };
+        assert_eq!(back.len(), 3);
+        for (a, b) in states.iter().zip(&back) {
+            assert_eq!(
+                (a.step, a.time, &a.displacement),
+                (b.step, b.time, &b.displacement)
+            );
+            assert_eq!((&a.velocity, &a.damage), (&b.velocity, &b.damage));
+        }
+        // another run's digest
+        assert!(matches!(
+            load_states(scratch.path(), &planned("abd")),
+            Stored::Missing
+        ));
+        let path = result_path(scratch.path(), &run);
+        let bytes = std::fs::read(&path).unwrap();
+        // truncated
+        std::fs::write(&path, &bytes[..bytes.len() - 5]).unwrap();
+        assert!(
+            matches!(load_states(scratch.path(), &run), Stored::Invalid(r) if r.contains("truncated"))
+        );
+        // one byte flipped in the payload
+        let mut flipped = bytes.clone();
+        let last = flipped.len() - 1;
+        flipped[last] ^= 1;
+        std::fs::write(&path, &flipped).unwrap();
+        assert!(
+            matches!(load_states(scratch.path(), &run), Stored::Invalid(r) if r.contains("checksum"))
+        );
+    }
+}
