@@ -12,12 +12,16 @@ use std::path::Path;
 /// The format tag of a manifest file.
 pub const MANIFEST_FORMAT: &str = "verify-manifest/1";
 
-/// What a result depends on besides its parameters: the version of the harness and of the
-/// solver crate, and the version of the result format. Part of every digest.
+/// What a result depends on besides its parameters: the version of the harness, a fingerprint
+/// of the sources of the solver, the input layer and the harness and of the locked dependencies
+/// (computed by the build script), and the version of the result format. Part of every digest:
+/// results cached by a build of other code are recomputed, not reused.
 pub const CODE_VERSION: &str = concat!(
     "verify ",
     env!("CARGO_PKG_VERSION"),
-    "; contact-damage (same workspace); result format 1"
+    "; sources ",
+    env!("VERIFY_SOURCE_FINGERPRINT"),
+    "; result format 1"
 );
 
 /// What a run computes.
