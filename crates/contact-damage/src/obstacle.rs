@@ -96,12 +96,14 @@ use std::hash::{DefaultHasher, Hash, Hasher};
 
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
+    SymbolicCholeskyRaw, SymmetricOrdering,
 };
-use faer::sparse::{SparseColMat, SparseColMatRef, Triplet};
+use faer::sparse::{SparseColMat, Triplet};
 use faer::{Conj, MatMut, Par, Side};
 
 use crate::error::{Error, History, Result};
+pub use crate::linalg::FactorKind;
 
 /// Settings of [`BoxQpSolver`].
 #[derive(Debug, Clone, Copy)]
@@ -111,6 +113,8 @@ pub struct BoxQpSettings {
     /// Maximum number of iterations, primal–dual active set and projected Newton steps together
     /// (default 100). The active set phase may use at most half of them.
     pub max_iterations: usize,
+    /// Simplicial or supernodal Cholesky factor of `A` (default [`FactorKind::Auto`]).
+    pub factorization: FactorKind,
 }
 
 impl Default for BoxQpSettings {
@@ -118,6 +122,7 @@ impl Default for BoxQpSettings {
         Self {
             tolerance: 1e-12,
             max_iterations: 100,
+            factorization: FactorKind::Auto,
         }
     }
 }
@@ -128,8 +133,12 @@ pub struct BoxQpStats {
     /// Iterations performed (active set steps plus projected Newton steps); 0 if the start
     /// already satisfied the tolerance.
     pub iterations: usize,
-    /// Numeric Cholesky factorizations computed in this call (cache hits are not counted).
+    /// Numeric Cholesky factorizations computed in this call: 1 in the first call of a solver
+    /// (the factor of `A`), 0 afterwards.
     pub factorizations: usize,
+    /// Preconditioned conjugate gradient iterations of all reduced solves in this call; each
+    /// costs one solve with the factor of `A` (two triangular solves) and one product with `A`.
+    pub inner_iterations: usize,
     /// Scaled KKT residual of the returned `x` (see [`box_qp_kkt_residual`]).
     pub kkt_residual: f64,
     /// Number of indices with `x_i = lower_i` (including fixed indices with `lower_i = upper_i`).
@@ -164,12 +173,10 @@ pub struct BoxQpSolver {
     diagonal: Vec<f64>,
     symbolic: SymbolicCholesky<usize>,
     parallelism: Par,
-    /// Values of the Cholesky factor of the last factorized modified matrix.
+    /// Values of the Cholesky factor of `A` itself (computed once, on the first solve).
     factor_values: Vec<f64>,
-    /// Fixed-index mask of the matrix whose factor is in `factor_values` (`None`: no valid factor).
-    factor_fixed: Option<Vec<bool>>,
-    /// Values of the modified matrix, in the value layout of `matrix`.
-    modified_values: Vec<f64>,
+    /// Whether `factor_values` holds the factor of `A`.
+    factorized: bool,
     factorization_memory: MemBuffer,
     solve_memory: MemBuffer,
 }
@@ -180,7 +187,7 @@ impl std::fmt::Debug for BoxQpSolver {
             .field("dimension", &self.diagonal.len())
             .field("nonzeros", &self.matrix.val().len())
             .field("settings", &self.settings)
-            .field("has_cached_factor", &self.factor_fixed.is_some())
+            .field("factorized", &self.factorized)
             .finish()
     }
 }
@@ -197,6 +204,15 @@ struct Workspace {
     fixed: Vec<bool>,
     state: Vec<BoundStatus>,
     next_state: Vec<BoundStatus>,
+    cg: CgWork,
+}
+
+/// Work vectors of the preconditioned conjugate gradient method.
+struct CgWork {
+    residual: Vec<f64>,
+    preconditioned: Vec<f64>,
+    search: Vec<f64>,
+    image: Vec<f64>,
 }
 
 impl Workspace {
@@ -212,6 +228,12 @@ impl Workspace {
             fixed: vec![false; dimension],
             state: vec![BoundStatus::Free; dimension],
             next_state: vec![BoundStatus::Free; dimension],
+            cg: CgWork {
+                residual: vec![0.0; dimension],
+                preconditioned: vec![0.0; dimension],
+                search: vec![0.0; dimension],
+                image: vec![0.0; dimension],
+            },
         }
     }
 }
@@ -269,7 +291,10 @@ impl BoxQpSolver {
             matrix.symbolic(),
             Side::Lower,
             SymmetricOrdering::Amd,
-            Default::default(),
+            CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: settings.factorization.threshold(),
+                ..Default::default()
+            },
         )
         .map_err(|err| Error::LinearAlgebra {
             context: "box QP symbolic Cholesky analysis".into(),
@@ -284,11 +309,10 @@ impl BoxQpSolver {
             symbolic.factorize_numeric_llt_scratch::<f64>(parallelism, Default::default()),
         )
         .map_err(|_| out_of_memory("factorization workspace"))?;
-        let solve_memory =
-            MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, parallelism))
-                .map_err(|_| out_of_memory("solve workspace"))?;
+        // Triangular solves are memory-bound and run sequentially (see `linalg`).
+        let solve_memory = MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq))
+            .map_err(|_| out_of_memory("solve workspace"))?;
         let factor_values = vec![0.0; symbolic.len_val()];
-        let modified_values = vec![0.0; matrix.val().len()];
         Ok(Self {
             matrix,
             settings,
@@ -296,11 +320,15 @@ impl BoxQpSolver {
             symbolic,
             parallelism,
             factor_values,
-            factor_fixed: None,
-            modified_values,
+            factorized: false,
             factorization_memory,
             solve_memory,
         })
+    }
+
+    /// Whether the Cholesky factor of `A` is supernodal (see [`FactorKind`]).
+    pub fn is_supernodal(&self) -> bool {
+        matches!(self.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_))
     }
 
     /// The matrix `A` (in canonical storage: sorted row indices in each column).
@@ -425,6 +453,8 @@ impl BoxQpSolver {
         let mut best_objective = objective(x, &work.gradient, problem.rhs);
         let mut best = x.to_vec();
         classify(x, &work.gradient, problem, &self.diagonal, &mut work.state);
+        // Warm start of the reduced solves: the free values of the previous iterate.
+        work.trial.copy_from_slice(x);
         let mut visited = Vec::new();
 
         while stats.iterations < budget {
@@ -498,6 +528,7 @@ impl BoxQpSolver {
             // Exact reduced solve on the active sets of the current point.
             let mut state = std::mem::take(&mut work.state);
             classify(x, &work.gradient, problem, &self.diagonal, &mut state);
+            work.trial.copy_from_slice(x);
             self.reduced_solve(&state, problem, work, stats)?;
             work.state = state;
             work.projected.copy_from_slice(&work.trial);
@@ -530,11 +561,18 @@ impl BoxQpSolver {
                     || (x[i] >= upper - epsilon && g < 0.0);
             }
             let fixed = std::mem::take(&mut work.fixed);
-            self.factorize(&fixed, stats)?;
             for i in 0..x.len() {
-                work.direction[i] = if fixed[i] { 0.0 } else { -work.gradient[i] };
+                work.product[i] = if fixed[i] { 0.0 } else { -work.gradient[i] };
             }
-            self.solve_in_place(&mut work.direction);
+            // Reduced Newton direction d_F = −A_FF⁻¹ g_F by CG from 0 (a descent direction
+            // even if stopped early).
+            let rhs = std::mem::take(&mut work.product);
+            let mut direction = std::mem::take(&mut work.direction);
+            let target = 0.1 * tolerance * problem.scale;
+            let result = self.reduced_cg(&fixed, &rhs, &mut direction, target, &mut work.cg, stats);
+            work.product = rhs;
+            work.direction = direction;
+            result?;
             let mut newton_decrement = 0.0;
             for i in 0..x.len() {
                 if fixed[i] {
@@ -597,9 +635,12 @@ impl BoxQpSolver {
         }
     }
 
-    /// Solves the reduced system of the active sets `state`: `work.trial` receives `x` with
-    /// `x_L = lower_L`, `x_U = upper_U` and `A_FF x_F = b_F − A_FL lower_L − A_FU upper_U`, and
-    /// `work.trial_gradient` receives `A x − b`.
+    /// Solves the reduced system of the active sets `state`: `work.trial` holds a start on
+    /// entry (its free values are the warm start) and receives `x` with `x_L = lower_L`,
+    /// `x_U = upper_U` and `A_FF x_F = b_F − A_FL lower_L − A_FU upper_U`; `work.trial_gradient`
+    /// receives `A x − b`. The correction `δ_F` with `A_FF δ_F = −g_F` is computed by
+    /// [`BoxQpSolver::reduced_cg`] and repeated (restarted from the true gradient) at most
+    /// [`MAX_REFINEMENT_STEPS`] times until the free gradient is below a tenth of the tolerance.
     fn reduced_solve(
         &mut self,
         state: &[BoundStatus],
@@ -609,30 +650,10 @@ impl BoxQpSolver {
     ) -> Result<()> {
         for (i, status) in state.iter().enumerate() {
             work.fixed[i] = *status != BoundStatus::Free;
-            work.trial[i] = match status {
-                BoundStatus::Free => 0.0,
-                BoundStatus::AtLower => problem.lower[i],
-                BoundStatus::AtUpper => problem.upper[i],
-            };
-        }
-        let fixed = std::mem::take(&mut work.fixed);
-        let result = self.factorize(&fixed, stats);
-        work.fixed = fixed;
-        result?;
-
-        // Right-hand side b_F − A_F,fixed x_fixed on the free rows, 0 on the decoupled fixed rows.
-        multiply(&self.matrix, &work.trial, &mut work.product);
-        for i in 0..state.len() {
-            work.direction[i] = if work.fixed[i] {
-                0.0
-            } else {
-                problem.rhs[i] - work.product[i]
-            };
-        }
-        self.solve_in_place(&mut work.direction);
-        for i in 0..state.len() {
-            if !work.fixed[i] {
-                work.trial[i] = work.direction[i];
+            match status {
+                BoundStatus::Free => {}
+                BoundStatus::AtLower => work.trial[i] = problem.lower[i],
+                BoundStatus::AtUpper => work.trial[i] = problem.upper[i],
             }
         }
         gradient(
@@ -641,40 +662,44 @@ impl BoxQpSolver {
             problem.rhs,
             &mut work.trial_gradient,
         );
-
-        // Iterative refinement on the free set with the same factor.
         let target = 0.1 * self.settings.tolerance * problem.scale;
         let mut free_residual = free_gradient_norm(&work.fixed, &work.trial_gradient);
-        for _ in 0..MAX_REFINEMENT_STEPS {
+        for _ in 0..=MAX_REFINEMENT_STEPS {
             if free_residual <= target {
                 break;
             }
             for i in 0..state.len() {
-                work.direction[i] = if work.fixed[i] {
+                work.product[i] = if work.fixed[i] {
                     0.0
                 } else {
                     -work.trial_gradient[i]
                 };
             }
-            self.solve_in_place(&mut work.direction);
+            let rhs = std::mem::take(&mut work.product);
+            let mut correction = std::mem::take(&mut work.direction);
+            let result = self.reduced_cg(
+                &work.fixed,
+                &rhs,
+                &mut correction,
+                target,
+                &mut work.cg,
+                stats,
+            );
+            work.product = rhs;
+            result?;
             for i in 0..state.len() {
-                if !work.fixed[i] {
-                    work.projected[i] = work.trial[i];
-                    work.trial[i] += work.direction[i];
-                }
+                work.projected[i] = work.trial[i];
+                work.trial[i] += correction[i];
             }
+            work.direction = correction;
             gradient(&self.matrix, &work.trial, problem.rhs, &mut work.product);
             let refined = free_gradient_norm(&work.fixed, &work.product);
             if refined < free_residual {
                 free_residual = refined;
                 work.trial_gradient.copy_from_slice(&work.product);
             } else {
-                // No progress: undo the step and stop.
-                for i in 0..state.len() {
-                    if !work.fixed[i] {
-                        work.trial[i] = work.projected[i];
-                    }
-                }
+                // No progress (rounding level): undo the correction and stop.
+                work.trial.copy_from_slice(&work.projected);
                 break;
             }
         }
@@ -686,35 +711,98 @@ impl BoxQpSolver {
         Ok(())
     }
 
-    /// Numerically factorizes the modified matrix for the fixed-index mask `fixed`, unless the
-    /// cached factor already belongs to this mask.
-    fn factorize(&mut self, fixed: &[bool], stats: &mut BoxQpStats) -> Result<()> {
-        if self.factor_fixed.as_deref() == Some(fixed) {
+    /// Conjugate gradients for the reduced system `A_FF y_F = r_F` (`F` = indices not `fixed`;
+    /// `rhs` and the returned `solution` vanish on the fixed indices), preconditioned with the
+    /// restriction of `A⁻¹` to `F`: `z = (A⁻¹ r̃)_F` where `r̃` is `r` extended by zero. This
+    /// preconditioner is SPD on `F` (it is `S_FF⁻¹`, the inverse of the Schur complement of `A`
+    /// onto `F`), and the preconditioned operator `S_FF⁻¹ A_FF = I + S_FF⁻¹ A_FI A_II⁻¹ A_IF`
+    /// differs from the identity by a term of rank at most `|I|`: CG ends in at most
+    /// `min(|F|, |I| + 1)` steps in exact arithmetic, and its spectrum lies in
+    /// `[1, 1/(1 − γ²)]` with `γ` the strengthened Cauchy–Schwarz constant between the
+    /// discrete functions carried by `F` and by `I`. Stops when `‖r − A_FF y‖_∞ ≤ target` (the
+    /// recursively updated residual), after a breakdown, or after the iteration cap.
+    #[allow(clippy::needless_range_loop)] // componentwise kernels over several vectors
+    fn reduced_cg(
+        &mut self,
+        fixed: &[bool],
+        rhs: &[f64],
+        solution: &mut [f64],
+        target: f64,
+        cg: &mut CgWork,
+        stats: &mut BoxQpStats,
+    ) -> Result<()> {
+        self.ensure_factor(stats)?;
+        let n = rhs.len();
+        solution.fill(0.0);
+        let free = fixed.iter().filter(|f| !**f).count();
+        if free == 0 {
             return Ok(());
         }
-        self.factor_fixed = None;
-        let symbolic = self.matrix.symbolic();
-        let values = self.matrix.val();
-        let row_indices = symbolic.row_idx();
-        for (column, &column_fixed) in fixed.iter().enumerate() {
-            for position in symbolic.col_range(column) {
-                let row = row_indices[position];
-                self.modified_values[position] = if column_fixed || fixed[row] {
-                    if row == column {
-                        self.diagonal[column]
-                    } else {
-                        0.0
-                    }
-                } else {
-                    values[position]
-                };
+        let cap = 2 * free.min(n - free + 1) + 20;
+        cg.residual.copy_from_slice(rhs);
+        if max_norm(&cg.residual) <= target {
+            return Ok(());
+        }
+        self.precondition(fixed, &cg.residual, &mut cg.preconditioned, stats);
+        cg.search.copy_from_slice(&cg.preconditioned);
+        let mut rho = dot(&cg.residual, &cg.preconditioned);
+        for _ in 0..cap {
+            multiply(&self.matrix, &cg.search, &mut cg.image);
+            for i in 0..n {
+                if fixed[i] {
+                    cg.image[i] = 0.0;
+                }
+            }
+            let curvature = dot(&cg.search, &cg.image);
+            if !(curvature > 0.0 && rho > 0.0) {
+                break; // breakdown at the rounding level
+            }
+            let alpha = rho / curvature;
+            for i in 0..n {
+                solution[i] += alpha * cg.search[i];
+                cg.residual[i] -= alpha * cg.image[i];
+            }
+            if max_norm(&cg.residual) <= target {
+                break;
+            }
+            self.precondition(fixed, &cg.residual, &mut cg.preconditioned, stats);
+            let next_rho = dot(&cg.residual, &cg.preconditioned);
+            let beta = next_rho / rho;
+            rho = next_rho;
+            for i in 0..n {
+                cg.search[i] = cg.preconditioned[i] + beta * cg.search[i];
             }
         }
-        let modified = SparseColMatRef::new(symbolic, &self.modified_values);
+        Ok(())
+    }
+
+    /// `z = (A⁻¹ r)_F` (zero on the fixed indices): one solve with the factor of `A`.
+    fn precondition(
+        &mut self,
+        fixed: &[bool],
+        residual: &[f64],
+        z: &mut [f64],
+        stats: &mut BoxQpStats,
+    ) {
+        stats.inner_iterations += 1;
+        z.copy_from_slice(residual);
+        self.solve_in_place(z);
+        for (value, &is_fixed) in z.iter_mut().zip(fixed) {
+            if is_fixed {
+                *value = 0.0;
+            }
+        }
+    }
+
+    /// Numerically factorizes `A` once (the first time a solve needs it).
+    fn ensure_factor(&mut self, stats: &mut BoxQpStats) -> Result<()> {
+        if self.factorized {
+            return Ok(());
+        }
         self.symbolic
             .factorize_numeric_llt::<f64>(
                 &mut self.factor_values,
-                modified,
+                self.matrix.as_ref(),
                 Side::Lower,
                 Default::default(),
                 self.parallelism,
@@ -722,17 +810,17 @@ impl BoxQpSolver {
                 Default::default(),
             )
             .map_err(|err| Error::LinearAlgebra {
-                context: "box QP reduced Cholesky factorization".into(),
+                context: "box QP Cholesky factorization of A".into(),
                 message: format!(
                     "{err:?}: the matrix is not (numerically) symmetric positive definite"
                 ),
             })?;
         stats.factorizations += 1;
-        self.factor_fixed = Some(fixed.to_vec());
+        self.factorized = true;
         Ok(())
     }
 
-    /// Overwrites `rhs` with the solution of the system of the cached factor.
+    /// Overwrites `rhs` with `A⁻¹ rhs` (the factor must exist).
     fn solve_in_place(&mut self, rhs: &mut [f64]) {
         let dimension = rhs.len();
         let rhs = MatMut::from_column_major_slice_mut(rhs, dimension, 1);
@@ -740,7 +828,7 @@ impl BoxQpSolver {
             .solve_in_place_with_conj(
                 Conj::No,
                 rhs,
-                self.parallelism,
+                Par::Seq,
                 MemStack::new(&mut self.solve_memory),
             );
     }
@@ -865,6 +953,16 @@ fn objective(x: &[f64], gradient: &[f64], rhs: &[f64]) -> f64 {
         .zip(gradient.iter().zip(rhs))
         .map(|(x, (g, b))| x * (g - b))
         .sum::<f64>()
+}
+
+/// `max_i |v_i|`.
+fn max_norm(v: &[f64]) -> f64 {
+    v.iter().fold(0.0_f64, |acc, value| acc.max(value.abs()))
+}
+
+/// `uᵀv`.
+fn dot(u: &[f64], v: &[f64]) -> f64 {
+    u.iter().zip(v).map(|(a, b)| a * b).sum()
 }
 
 /// `max_{i free} |g_i|`.
@@ -1519,6 +1617,7 @@ mod tests {
         let settings = BoxQpSettings {
             tolerance: 1e-12,
             max_iterations: 2,
+            ..Default::default()
         };
         let mut solver = BoxQpSolver::new(sparse_from_dense(&dense), settings).unwrap();
         let mut x = vec![0.0; 3];
@@ -1633,6 +1732,7 @@ mod tests {
         let settings = BoxQpSettings {
             tolerance: 0.0,
             max_iterations: 10,
+            ..Default::default()
         };
         assert!(matches!(
             BoxQpSolver::new(matrix, settings),
