@@ -1,7 +1,7 @@
 //! The fixed damage case of the iteration-count test (`tests/damage_iterations.rs`) and of the
 //! `damage_iterations` example: (5.2) alone on the unit square, P1 on an N × N Kuhn mesh, with
 //! κ = 0.01, T = 0.25 and 16 steps (k = 1/64, the same for every N), β_0 = 1 − ½ b(x − c(0)) and
-//! a damage source −S b(x − c(t)) whose centre c(t) = (0.3 + 1.6 t, 0.5) moves along x, with
+//! a damage source H − S b(x − c(t)) (H = 1, S = 40) whose centre c(t) = (0.3 + 1.6 t, 0.5) moves along x, with
 //! b(y) = exp(−|y|²/0.02). Both bounds become active (β = 0 under the source once it has
 //! eroded the material, β = 1 away from it) and the active sets move with the source.
 
@@ -20,6 +20,8 @@ pub const FINAL_TIME: f64 = 0.25;
 pub const STEPS: usize = 16;
 /// Strength S of the source.
 pub const STRENGTH: f64 = 40.0;
+/// A constant positive part H of the source, which keeps β = 1 active away from the bump.
+pub const HEALING: f64 = 1.0;
 
 fn bump(x: [f64; 2], centre: [f64; 2]) -> f64 {
     let r2 = (x[0] - centre[0]).powi(2) + (x[1] - centre[1]).powi(2);
@@ -51,7 +53,7 @@ pub fn run(cells: usize) -> contact_damage::Result<Vec<BoxQpStats>> {
         let nodal: Vec<f64> = space
             .nodes()
             .iter()
-            .map(|&x| -STRENGTH * bump(x, c))
+            .map(|&x| HEALING - STRENGTH * bump(x, c))
             .collect();
         let source = multiply(&mass, &nodal);
         let solution = operator.solve(&source, &damage)?;
