@@ -101,9 +101,9 @@
 //! by the same CG from zero (a descent direction at any iteration).
 //!
 //! The factor is simplicial by default ([`FactorKind::Simplicial`]): it is computed once per
-//! run, and only the solves count; measured on 2D P1 damage matrices (`reports/benchmark_step.md`)
-//! the simplicial solve is 1.8–2.6× faster than the supernodal one that faer's own rule picks
-//! from N = 256 on.
+//! run, and only the solves count; measured on P1 damage matrices (`reports/benchmark_step.md`)
+//! the simplicial solve is 2.5–4× faster in 2D from N = 256 on than the supernodal one that
+//! faer's own rule picks there, and within a factor 1.7 either way in 3D.
 //!
 //! # References
 //! - M. Hintermüller, K. Ito, K. Kunisch, *The primal-dual active set strategy as a semismooth
