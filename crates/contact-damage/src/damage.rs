@@ -8,7 +8,9 @@
 //! variational crime is added, and it is the only choice for P2 (row-sum lumping of P2 on
 //! simplices gives zero or negative vertex masses). M/k + κK is then SPD but not an M-matrix
 //! (positive off-diagonal mass entries), so the solver is the globally convergent active-set
-//! method of [`crate::obstacle`]. For l = 2, 𝒦^h is the set of P2 fields whose nodal values lie in
+//! method of [`crate::obstacle`]. M/k + κK does not change during a run: it is factorized once
+//! (in the first step) and the reduced systems of every step are solved by conjugate gradients
+//! preconditioned with that factor (see [`crate::obstacle`], "Linear algebra"). For l = 2, 𝒦^h is the set of P2 fields whose nodal values lie in
 //! [0, 1] (a field may leave [0, 1] slightly between nodes).
 
 use crate::assembly::damage_element_matrix;
@@ -98,6 +100,11 @@ impl<const D: usize> DamageOperator<D> {
             time_step,
             solver,
         })
+    }
+
+    /// The box-QP solver (its matrix M/k + κK and its factor).
+    pub fn solver(&self) -> &BoxQpSolver {
+        &self.solver
     }
 
     /// The space of the damage field.

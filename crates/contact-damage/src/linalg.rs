@@ -7,8 +7,10 @@ use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::perm::PermRef;
 use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
+    SymbolicCholeskyRaw, SymmetricOrdering,
 };
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{Pair, SparseColMat, SymbolicSparseColMat};
 use faer::{Conj, Mat, Side};
 use rayon::prelude::*;
@@ -122,6 +124,31 @@ impl SparsityPattern {
     }
 }
 
+/// Which sparse Cholesky factorization faer computes: the simplicial (column by column) or the
+/// supernodal (dense blocks of columns with the same pattern) one. [`FactorKind::Auto`] is
+/// faer's own rule: supernodal when the flop count per factor nonzero exceeds a threshold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum FactorKind {
+    /// faer's flop-ratio heuristic.
+    #[default]
+    Auto,
+    /// Always the simplicial factorization.
+    Simplicial,
+    /// Always the supernodal factorization.
+    Supernodal,
+}
+
+impl FactorKind {
+    /// The threshold of faer's symbolic analysis that realizes this choice.
+    pub fn threshold(self) -> SupernodalThreshold {
+        match self {
+            FactorKind::Auto => SupernodalThreshold::AUTO,
+            FactorKind::Simplicial => SupernodalThreshold::FORCE_SIMPLICIAL,
+            FactorKind::Supernodal => SupernodalThreshold::FORCE_SUPERNODAL,
+        }
+    }
+}
+
 /// Sparse Cholesky solver for symmetric positive definite matrices of one fixed pattern: the
 /// symbolic analysis (fill-reducing ordering, elimination tree, supernodes) is done once in
 /// [`CholeskySolver::analyse`] or [`CholeskySolver::analyse_with_ordering`]; numeric
@@ -138,7 +165,28 @@ impl CholeskySolver {
     /// Symbolic analysis of the pattern of `matrix` with an approximate minimum degree ordering
     /// (the lower triangle is read).
     pub fn analyse(matrix: &SparseColMat<usize, f64>, context: &'static str) -> Result<Self> {
-        Self::analyse_ordered(matrix, None, context)
+        Self::analyse_ordered(matrix, None, FactorKind::Auto, context)
+    }
+
+    /// Symbolic analysis with an approximate minimum degree ordering and a chosen
+    /// simplicial/supernodal factor (for measurements; [`CholeskySolver::analyse`] lets faer
+    /// choose).
+    pub fn analyse_as(
+        matrix: &SparseColMat<usize, f64>,
+        kind: FactorKind,
+        context: &'static str,
+    ) -> Result<Self> {
+        Self::analyse_ordered(matrix, None, kind, context)
+    }
+
+    /// [`CholeskySolver::analyse_with_ordering`] with a chosen simplicial/supernodal factor.
+    pub fn analyse_with_ordering_as(
+        matrix: &SparseColMat<usize, f64>,
+        ordering: &[usize],
+        kind: FactorKind,
+        context: &'static str,
+    ) -> Result<Self> {
+        Self::analyse_ordered(matrix, Some(ordering), kind, context)
     }
 
     /// Symbolic analysis with a given elimination order (`ordering[position] = unknown`), e.g. a
@@ -148,14 +196,19 @@ impl CholeskySolver {
         ordering: &[usize],
         context: &'static str,
     ) -> Result<Self> {
-        Self::analyse_ordered(matrix, Some(ordering), context)
+        Self::analyse_ordered(matrix, Some(ordering), FactorKind::Auto, context)
     }
 
     fn analyse_ordered(
         matrix: &SparseColMat<usize, f64>,
         ordering: Option<&[usize]>,
+        kind: FactorKind,
         context: &'static str,
     ) -> Result<Self> {
+        let params = CholeskySymbolicParams {
+            supernodal_flop_ratio_threshold: kind.threshold(),
+            ..Default::default()
+        };
         let size = matrix.nrows();
         let failure = |message: String| Error::LinearAlgebra {
             context: context.into(),
@@ -166,7 +219,7 @@ impl CholeskySolver {
                 matrix.symbolic(),
                 Side::Lower,
                 SymmetricOrdering::Amd,
-                Default::default(),
+                params,
             ),
             Some(forward) => {
                 if forward.len() != size {
@@ -189,7 +242,7 @@ impl CholeskySolver {
                     matrix.symbolic(),
                     Side::Lower,
                     SymmetricOrdering::Custom(permutation),
-                    Default::default(),
+                    params,
                 )
             }
         }
@@ -200,6 +253,19 @@ impl CholeskySolver {
             factor: None,
             context,
         })
+    }
+
+    /// Whether the factor is supernodal (else simplicial).
+    pub fn is_supernodal(&self) -> bool {
+        matches!(self.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_))
+    }
+
+    /// The elimination order (`ordering[position] = unknown`) of the analysis.
+    pub fn ordering(&self) -> Vec<usize> {
+        match self.symbolic.perm() {
+            Some(perm) => perm.arrays().0.to_vec(),
+            None => (0..self.size).collect(),
+        }
     }
 
     /// Number of stored values of the factor L (a measure of fill).

@@ -346,6 +346,12 @@ impl<const D: usize> VelocityOperator<D> {
         Ok(operator)
     }
 
+    /// The Cholesky solver of the operator (its factor once a step has been solved); for
+    /// benchmarks of the triangular solves.
+    pub fn solver(&self) -> &CholeskySolver {
+        &self.solver
+    }
+
     /// The finite element space.
     pub fn space(&self) -> &Arc<LagrangeSpace<D>> {
         &self.space

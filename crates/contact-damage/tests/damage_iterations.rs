@@ -1,0 +1,46 @@
+//! Work of the damage step (5.2) on the fixed moving-damage case of
+//! `examples/common/moving_damage.rs`: one numeric factorization per run, an exact KKT
+//! certificate every step, and bounded outer (active-set) and inner (preconditioned CG)
+//! iteration counts for N = 16, 32, 64. The counts for N up to 512 are in the README
+//! (`cargo run --release -p contact-damage --example damage_iterations`).
+
+#[path = "../examples/common/moving_damage.rs"]
+mod moving_damage;
+
+/// Largest number of active-set iterations of one step allowed for N ≤ 64 (measured: 3, 3, 5).
+const MAX_OUTER: usize = 6;
+/// Largest number of CG iterations (solves with the factor) of one step for N ≤ 64
+/// (measured: 5, 4, 8).
+const MAX_INNER: usize = 12;
+
+#[test]
+fn damage_step_factorizes_once_and_its_iteration_counts_stay_bounded() {
+    for cells in [16, 32, 64] {
+        let stats = moving_damage::run(cells).unwrap();
+        assert_eq!(stats.len(), moving_damage::STEPS);
+        let factorizations: usize = stats.iter().map(|s| s.factorizations).sum();
+        assert_eq!(factorizations, 1, "N = {cells}: {stats:?}");
+        for (n, s) in stats.iter().enumerate() {
+            assert!(
+                s.kkt_residual <= 1e-10,
+                "N = {cells}, step {}: {s:?}",
+                n + 1
+            );
+            assert!(!s.used_fallback, "N = {cells}, step {}: {s:?}", n + 1);
+            assert!(
+                s.iterations <= MAX_OUTER && s.inner_iterations <= MAX_INNER,
+                "N = {cells}, step {}: {s:?}",
+                n + 1
+            );
+        }
+        // both bounds are active and the active sets move with the source
+        let first = &stats[0];
+        let last = stats.last().unwrap();
+        assert!(last.lower_active > 0 && last.upper_active > 0, "{last:?}");
+        assert_ne!(
+            (first.lower_active, first.upper_active),
+            (last.lower_active, last.upper_active)
+        );
+        assert!(stats.iter().all(|s| s.iterations >= 1));
+    }
+}

@@ -1,0 +1,463 @@
+//! Per-step budget of the `simulate` time loop (issue 10): the time of one step after the first
+//! factorization, split into its parts, against two triangular solves with the velocity factor.
+//!
+//! ```text
+//! cargo run --release -p simulate --example bench_step -- [--quick] [--output PATH] [CASE ...]
+//! ```
+//!
+//! CASE is `2d:N` or `3d:N`; default 2D P1 at N = 128, 256, 512 and 3D P1 at N = 16, 32
+//! (`--quick`: 2d:64 and 3d:8, written to `reports/benchmark_step-quick.md`). Every case runs on
+//! one thread (`--threads 1` of `simulate`) in a fresh process (the example calls itself with
+//! `--child CASE`), so the sizes do not share allocator state.
+//!
+//! The problem is `examples/rectangle_2d.toml` (resp. `block_3d.toml`) on the unit square (cube)
+//! with N cells per side, T = 1 and 128 steps, with β_0 = 1 − 0.4 exp(−|x − x_c|²/0.02) (x_c
+//! under the loaded region) so that the damage step has both a free and an active set from the
+//! start, and the load rising (steps 25–32 are measured, after 24 unmeasured steps): contact
+//! nodes change between separated, stick and slip, and the damage active set moves.
+//!
+//! Per measured step: the load and right-hand-side assembly ([`Simulation::step_loads`], inside
+//! the step), the velocity step (5.1), the damage step (5.2), the rest of `Simulation::step`
+//! (penetrations, gap, Dirichlet values), and the contact and damage statistics that `simulate`
+//! computes for `history.csv` (the same functions as `simulate::run`); writing a CSV line is
+//! not timed (a few hundred bytes). The reference is the best of 5 solves with the velocity
+//! factor (forward and backward substitution). The second table compares the simplicial and
+//! the supernodal Cholesky factorizations of faer for the velocity matrix (its nested
+//! dissection order) and the damage matrix M/k + κK (AMD).
+
+use contact_damage::atomic::write_atomic;
+use contact_damage::contact::ContactStatus;
+use contact_damage::damage::assemble_damage_matrix;
+use contact_damage::linalg::{CholeskySolver, FactorKind};
+use contact_damage::quadrature::QuadratureRule;
+use contact_damage::scheme::Simulation;
+use contact_damage::space::Tabulation;
+use simulate::history::{
+    contact_integrals, damage_integrals, tangential_speed, ContactStep, RunningSums,
+};
+use simulate::pictures::ContactLine;
+use simulate::problem::{parse_problem_file, ProblemSetup};
+use simulate::zone::{boundary_penetration, contact_force, contact_zone};
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+/// Unmeasured steps before the measured ones (the load rises).
+const WARM_STEPS: usize = 24;
+/// Measured steps.
+const MEASURED_STEPS: usize = 8;
+
+type Failure = Box<dyn std::error::Error>;
+
+fn main() -> Result<(), Failure> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if let Some(position) = args.iter().position(|a| a == "--child") {
+        let case = args.get(position + 1).ok_or("--child needs a case")?;
+        contact_input::threads::set_threads(Some(1))?;
+        let (dim, cells) = parse_case(case)?;
+        let line = match dim {
+            2 => measure::<2>(cells)?,
+            _ => measure::<3>(cells)?,
+        };
+        println!("ROW {line}");
+        return Ok(());
+    }
+    let quick = args.iter().any(|a| a == "--quick");
+    let output = match args.iter().position(|a| a == "--output") {
+        Some(p) => PathBuf::from(args.get(p + 1).ok_or("--output needs a path")?),
+        None => Path::new(env!("CARGO_MANIFEST_DIR")).join(if quick {
+            "../../reports/benchmark_step-quick.md"
+        } else {
+            "../../reports/benchmark_step.md"
+        }),
+    };
+    let mut cases: Vec<String> = args
+        .iter()
+        .filter(|a| a.starts_with("2d:") || a.starts_with("3d:"))
+        .cloned()
+        .collect();
+    if cases.is_empty() {
+        cases = if quick {
+            vec!["2d:64".into(), "3d:8".into()]
+        } else {
+            ["2d:128", "2d:256", "2d:512", "3d:16", "3d:32"]
+                .map(String::from)
+                .to_vec()
+        };
+    }
+    let started = utc_now();
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    let mut step_rows = Vec::new();
+    let mut factor_rows = Vec::new();
+    for case in &cases {
+        parse_case(case)?;
+        eprintln!("bench_step: {case} …");
+        let out = Command::new(std::env::current_exe()?)
+            .args(["--child", case])
+            .output()?;
+        let text = String::from_utf8_lossy(&out.stdout);
+        match text.lines().find_map(|l| l.strip_prefix("ROW ")) {
+            Some(row) => {
+                let (steps, factors) = row.split_once(" ## ").ok_or("malformed child row")?;
+                step_rows.push(steps.to_string());
+                factor_rows.push(factors.to_string());
+            }
+            None => {
+                let error = String::from_utf8_lossy(&out.stderr);
+                step_rows.push(format!(
+                    "| {case} | failed: {} |",
+                    error.lines().last().unwrap_or("no output")
+                ));
+            }
+        }
+    }
+    let command = format!(
+        "cargo run --release -p simulate --example bench_step --{}{}",
+        if quick { " --quick" } else { "" },
+        cases.iter().map(|c| format!(" {c}")).collect::<String>()
+    );
+    let report = render(&command, &started, load.trim(), &step_rows, &factor_rows);
+    print!("{report}");
+    write_atomic(&output, |w| w.write_all(report.as_bytes()))?;
+    eprintln!("written {}", output.display());
+    Ok(())
+}
+
+fn parse_case(case: &str) -> Result<(usize, usize), Failure> {
+    let (dim, cells) = case.split_once(':').ok_or("case must be 2d:N or 3d:N")?;
+    let dim = match dim {
+        "2d" => 2,
+        "3d" => 3,
+        _ => return Err(format!("unknown dimension in {case}").into()),
+    };
+    let cells: usize = cells.parse()?;
+    if cells == 0 {
+        return Err(format!("{case}: N must be positive").into());
+    }
+    Ok((dim, cells))
+}
+
+/// The example problem of dimension D on the unit box with N cells per side.
+fn problem_text(dim: usize, cells: usize) -> String {
+    let (text, old_box, new_box, initial) = if dim == 2 {
+        (
+            include_str!("rectangle_2d.toml"),
+            "upper = [2.0, 1.0], cells = [40, 20]",
+            format!("upper = [1.0, 1.0], cells = [{cells}, {cells}]"),
+            "initial_damage = \"1 - 0.4*exp(-((x - 0.6)^2 + (y - 0.8)^2)/0.02)\"",
+        )
+    } else {
+        (
+            include_str!("block_3d.toml"),
+            "upper = [2.0, 1.0, 1.0], cells = [16, 8, 8]",
+            format!("upper = [1.0, 1.0, 1.0], cells = [{cells}, {cells}, {cells}]"),
+            "initial_damage = \"1 - 0.4*exp(-((x - 0.6)^2 + (y - 0.5)^2 + (z - 0.8)^2)/0.02)\"",
+        )
+    };
+    let mut out = String::new();
+    for line in text.lines() {
+        let line = if line.starts_with("final_time") {
+            "final_time = 1.0".to_string()
+        } else if line.starts_with("steps") {
+            "steps = 128".to_string()
+        } else if line.starts_with("center") {
+            "center = 0.6".to_string()
+        } else if line.starts_with("gap") {
+            // an obstacle pushed into the body for x < 0.5: contact from the start, the
+            // zone moving with the load
+            "gap = \"0.03*(x - 0.5)\"".to_string()
+        } else {
+            line.replace(old_box, &new_box)
+        };
+        out.push_str(&line);
+        out.push('\n');
+        if line == "[loads]" {
+            out.push_str(initial);
+            out.push('\n');
+        }
+    }
+    out
+}
+
+fn best_of<T>(repeats: usize, mut run: impl FnMut() -> T) -> f64 {
+    (0..repeats)
+        .map(|_| {
+            let started = Instant::now();
+            std::hint::black_box(run());
+            started.elapsed().as_secs_f64()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
+fn counts(status: &[ContactStatus]) -> [usize; 3] {
+    let mut c = [0; 3];
+    for s in status {
+        match s {
+            ContactStatus::Separated => c[0] += 1,
+            ContactStatus::Stick => c[1] += 1,
+            ContactStatus::Slip => c[2] += 1,
+        }
+    }
+    c
+}
+
+/// Runs one case; returns its row of the step table and its row of the factor table,
+/// separated by ` ## `.
+fn measure<const D: usize>(cells: usize) -> Result<String, Failure> {
+    let name = format!("{D}d:{cells}");
+    let text = problem_text(D, cells);
+    let file = parse_problem_file(&text, &name)?;
+    let setup = ProblemSetup::<D>::new(file, Path::new(&name))?;
+    let mut simulation = Simulation::new(setup.problem.clone())?;
+    let space = simulation.space().clone();
+    let contact = simulation.contact().clone();
+    let line = ContactLine::new(&space, &contact);
+    let tabulation = Tabulation::cell_rule(
+        space.element(),
+        &QuadratureRule::<D>::simplex(2 * space.degree()),
+    );
+    let mut sums = RunningSums::new(contact.len());
+    let k = simulation.time_step();
+    let gap = setup.problem.data.gap.clone();
+
+    for _ in 0..WARM_STEPS {
+        simulation.step()?;
+    }
+    let before = *simulation.timings();
+    let (mut total, mut statistics) = (0.0, 0.0);
+    let (mut outer, mut inner, mut damage_factorizations) = (0, 0, 0);
+    let mut status_first = [0; 3];
+    let mut status_last = [0; 3];
+    let mut active_first = (0, 0);
+    let mut active_last = (0, 0);
+    let mut kkt = [0.0f64; 2];
+    for m in 0..MEASURED_STEPS {
+        let started = Instant::now();
+        let (velocity, damage, normal_pressure, friction_bound) = simulation.step()?;
+        total += started.elapsed().as_secs_f64();
+        let started = Instant::now();
+        let state = simulation.state();
+        let integrals = damage_integrals(&space, &tabulation, &state.damage);
+        let speed = tangential_speed(&contact, &state.velocity);
+        let on_contact = contact_integrals(
+            &contact,
+            &ContactStep {
+                status: &velocity.status,
+                normal_pressure: &normal_pressure,
+                friction_bound: &friction_bound,
+            },
+            &speed,
+            k,
+            &mut sums,
+        );
+        let force = contact_force(
+            &contact,
+            &normal_pressure,
+            &friction_bound,
+            &velocity.multipliers,
+        );
+        let previous: Vec<f64> = state
+            .displacement
+            .iter()
+            .zip(&state.velocity)
+            .map(|(u, v)| u - k * v)
+            .collect();
+        let gap_time = state.time - k;
+        let zone = contact_zone(
+            &space,
+            &boundary_penetration(&space, &contact, &previous, |x| gap(x, gap_time)),
+            line.axis,
+        );
+        std::hint::black_box((integrals, on_contact, force, zone));
+        statistics += started.elapsed().as_secs_f64();
+        outer += damage.stats.iterations;
+        inner += damage.stats.inner_iterations;
+        damage_factorizations += damage.stats.factorizations;
+        kkt[0] = kkt[0].max(velocity.stats.kkt_residual);
+        kkt[1] = kkt[1].max(damage.stats.kkt_residual);
+        let active = (damage.stats.lower_active, damage.stats.upper_active);
+        if m == 0 {
+            status_first = counts(&velocity.status);
+            active_first = active;
+        }
+        status_last = counts(&velocity.status);
+        active_last = active;
+    }
+    let after = *simulation.timings();
+    let per = |d: std::time::Duration| d.as_secs_f64() / MEASURED_STEPS as f64;
+    let loads = per(after.loads - before.loads);
+    let velocity = per(after.velocity - before.velocity);
+    let damage = per(after.damage - before.damage);
+    let total = total / MEASURED_STEPS as f64;
+    let rest = total - loads - velocity - damage;
+    let statistics = statistics / MEASURED_STEPS as f64;
+
+    let velocity_solver = simulation.velocity_operator().solver();
+    let size = simulation.velocity_operator().size();
+    let rhs: Vec<f64> = (0..size).map(|i| ((i % 7) as f64) - 3.0).collect();
+    let reference = best_of(5, || velocity_solver.solve(&rhs));
+    let full = total + statistics;
+    let step_row = format!(
+        "| {name} | {size} / {} | {} | {} | {} | {} | {} | {} | **{}** | {} | **{:.1}×** | {outer} / {inner} / {damage_factorizations} | {:?} → {:?} | {:?} → {:?} | {:.0e} / {:.0e} |",
+        space.num_nodes(),
+        ms(loads),
+        ms(velocity),
+        ms(damage),
+        ms(rest),
+        ms(statistics),
+        ms(total),
+        ms(full),
+        ms(reference),
+        full / reference,
+        status_first,
+        status_last,
+        active_first,
+        active_last,
+        kkt[0],
+        kkt[1],
+    );
+
+    // simplicial against supernodal, velocity (nested dissection order) and damage (AMD)
+    let velocity_matrix = simulation.velocity_operator().assemble(None)?;
+    let ordering = velocity_solver.ordering();
+    let damage_matrix =
+        assemble_damage_matrix(&space, 1.0 / k, setup.problem.model.damage_diffusion)?;
+    let mut factor_row = format!("| {name} |");
+    for (what, matrix, order) in [
+        ("velocity", &velocity_matrix, Some(&ordering)),
+        ("damage", &damage_matrix, None),
+    ] {
+        let rhs: Vec<f64> = (0..matrix.nrows())
+            .map(|i| ((i % 5) as f64) - 2.0)
+            .collect();
+        let mut cells = Vec::new();
+        for kind in [FactorKind::Simplicial, FactorKind::Supernodal] {
+            let mut solver = match order {
+                Some(order) => CholeskySolver::analyse_with_ordering_as(matrix, order, kind, what)?,
+                None => CholeskySolver::analyse_as(matrix, kind, what)?,
+            };
+            let factorize = best_of(1, || solver.factorize(matrix));
+            let solve = best_of(5, || solver.solve(&rhs));
+            cells.push((factorize, solve));
+        }
+        let auto = match order {
+            Some(order) => CholeskySolver::analyse_with_ordering(matrix, order, what)?,
+            None => CholeskySolver::analyse(matrix, what)?,
+        };
+        let _ = write!(
+            factor_row,
+            " {} / {} | {} / {} | {} |",
+            ms(cells[0].0),
+            ms(cells[0].1),
+            ms(cells[1].0),
+            ms(cells[1].1),
+            if auto.is_supernodal() {
+                "supernodal"
+            } else {
+                "simplicial"
+            },
+        );
+    }
+    Ok(format!("{step_row} ## {factor_row}"))
+}
+
+fn ms(seconds: f64) -> String {
+    let value = seconds * 1e3;
+    if value < 1.0 {
+        format!("{value:.3}")
+    } else if value < 100.0 {
+        format!("{value:.2}")
+    } else {
+        format!("{value:.0}")
+    }
+}
+
+fn render(
+    command: &str,
+    started: &str,
+    load: &str,
+    steps: &[String],
+    factors: &[String],
+) -> String {
+    let cpu = std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|t| {
+            t.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split_once(':'))
+                .map(|(_, v)| v.trim().to_string())
+        })
+        .unwrap_or_else(|| "unknown CPU".into());
+    let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
+    let mut out = String::new();
+    let _ = writeln!(out, "# Per-step budget of `simulate` (issue 10)\n");
+    let _ = writeln!(
+        out,
+        "Command: `{command}`  \nMachine: {cpu}, {cores} cores shared with other jobs (load average at start {load}); one thread per case.  \nDate: {started}.\n"
+    );
+    let _ = writeln!(
+        out,
+        "Times in ms per step, mean of steps {}–{} of 128 (T = 1) of the rectangle/block example on the unit box \
+         (after the first factorization). *loads* = load and right-hand-side assembly of (5.1) and (5.2); *rest* = \
+         the remainder of `Simulation::step` (penetrations, gap, Dirichlet values); *stats* = the contact and damage \
+         statistics of `history.csv`; *step* = `Simulation::step`; *full* = step + stats (everything `simulate` does in \
+         a step except writing VTU); *2 tri-solves* = one solve with the velocity factor (forward + backward \
+         substitution), the reference limit; *ratio* = full / 2 tri-solves (target ≤ 3). *damage it.* = outer \
+         (active-set) / inner (preconditioned CG, one solve with the damage factor each) iterations over the measured \
+         steps / numeric factorizations. Contact nodes as [separated, stick, slip] at the first → last measured step; \
+         damage active nodes as (β = 0, β = 1).\n",
+        WARM_STEPS + 1,
+        WARM_STEPS + MEASURED_STEPS
+    );
+    let _ = writeln!(
+        out,
+        "| case | unknowns velocity / damage | loads | (5.1) | (5.2) | rest | stats | step | full | 2 tri-solves | ratio | damage it. outer / inner / fact. | contact nodes | damage active | KKT (5.1) / (5.2) |"
+    );
+    let _ = writeln!(
+        out,
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for row in steps {
+        let _ = writeln!(out, "{row}");
+    }
+    let _ = writeln!(
+        out,
+        "\n## Simplicial against supernodal Cholesky (faer)\n\nms, numeric factorization (once) / one solve (best of 5); \
+         *auto* = faer's own choice (flop-ratio rule). The velocity operator uses it (supernodal; the trailing block \
+         of the supernodal factor is the condensed operator of (5.1)); the damage box QP uses the simplicial factor \
+         (`BoxQpSettings::factorization`), factorized once per run, because its solves are faster.\n"
+    );
+    let _ = writeln!(
+        out,
+        "| case | velocity simplicial | velocity supernodal | velocity auto | damage simplicial | damage supernodal | damage auto |"
+    );
+    let _ = writeln!(out, "|---|---|---|---|---|---|---|");
+    for row in factors {
+        let _ = writeln!(out, "{row}");
+    }
+    out
+}
+
+/// The current time as `YYYY-MM-DD HH:MM UTC`.
+fn utc_now() -> String {
+    let secs = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_secs());
+    let days = (secs / 86_400) as i64;
+    let rem = secs % 86_400;
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02} {:02}:{:02} UTC",
+        rem / 3600,
+        (rem % 3600) / 60
+    )
+}
