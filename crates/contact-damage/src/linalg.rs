@@ -403,6 +403,14 @@ impl CholeskySolver {
 /// y = A x for a sparse matrix in full (both triangles) storage.
 pub fn multiply(matrix: &SparseColMat<usize, f64>, x: &[f64]) -> Vec<f64> {
     let mut y = vec![0.0; matrix.nrows()];
+    multiply_into(matrix, x, &mut y);
+    y
+}
+
+/// `product = A x` into a given vector (column-oriented scatter, valid for any stored matrix;
+/// `product` has `A.nrows()` entries).
+pub fn multiply_into(matrix: &SparseColMat<usize, f64>, x: &[f64], product: &mut [f64]) {
+    product.fill(0.0);
     let col_ptr = matrix.symbolic().col_ptr();
     let row_idx = matrix.symbolic().row_idx();
     let values = matrix.val();
@@ -411,10 +419,9 @@ pub fn multiply(matrix: &SparseColMat<usize, f64>, x: &[f64]) -> Vec<f64> {
             continue;
         }
         for k in col_ptr[col]..col_ptr[col + 1] {
-            y[row_idx[k]] += values[k] * xc;
+            product[row_idx[k]] += values[k] * xc;
         }
     }
-    y
 }
 
 #[cfg(test)]

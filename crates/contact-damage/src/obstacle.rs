@@ -117,16 +117,12 @@
 
 use std::hash::{DefaultHasher, Hash, Hasher};
 
-use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
-    SymbolicCholeskyRaw, SymmetricOrdering,
-};
 use faer::sparse::{SparseColMat, Triplet};
-use faer::{Conj, MatMut, Par, Side};
+use faer::MatMut;
 
 use crate::error::{Error, History, Result};
 pub use crate::linalg::FactorKind;
+use crate::linalg::{multiply_into, CholeskySolver};
 
 /// Settings of [`BoxQpSolver`].
 #[derive(Debug, Clone, Copy)]
@@ -196,14 +192,9 @@ pub struct BoxQpSolver {
     matrix: SparseColMat<usize, f64>,
     settings: BoxQpSettings,
     diagonal: Vec<f64>,
-    symbolic: SymbolicCholesky<usize>,
-    parallelism: Par,
-    /// Values of the Cholesky factor of `A` itself (computed once, on the first solve).
-    factor_values: Vec<f64>,
-    /// Whether `factor_values` holds the factor of `A`.
-    factorized: bool,
-    factorization_memory: MemBuffer,
-    solve_memory: MemBuffer,
+    /// The Cholesky factor of `A` itself (symbolic analysis at construction, numeric
+    /// factorization once, on the first solve that needs it).
+    factor: CholeskySolver,
 }
 
 impl std::fmt::Debug for BoxQpSolver {
@@ -212,7 +203,7 @@ impl std::fmt::Debug for BoxQpSolver {
             .field("dimension", &self.diagonal.len())
             .field("nonzeros", &self.matrix.val().len())
             .field("settings", &self.settings)
-            .field("factorized", &self.factorized)
+            .field("factorized", &self.factor.is_factorized())
             .finish()
     }
 }
@@ -316,48 +307,22 @@ impl BoxQpSolver {
         let matrix = canonical_storage(matrix)?;
         let diagonal = validate_symmetric_positive_diagonal(&matrix)?;
 
-        let symbolic = factorize_symbolic_cholesky(
-            matrix.symbolic(),
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            CholeskySymbolicParams {
-                supernodal_flop_ratio_threshold: settings.factorization.threshold(),
-                ..Default::default()
-            },
-        )
-        .map_err(|err| Error::LinearAlgebra {
-            context: "box QP symbolic Cholesky analysis".into(),
-            message: format!("{err:?}"),
-        })?;
-        let parallelism = faer::get_global_parallelism();
-        let out_of_memory = |what: &str| Error::LinearAlgebra {
-            context: format!("box QP {what}"),
-            message: "out of memory".into(),
-        };
-        let factorization_memory = MemBuffer::try_new(
-            symbolic.factorize_numeric_llt_scratch::<f64>(parallelism, Default::default()),
-        )
-        .map_err(|_| out_of_memory("factorization workspace"))?;
-        // Triangular solves are memory-bound and run sequentially (see `linalg`).
-        let solve_memory = MemBuffer::try_new(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq))
-            .map_err(|_| out_of_memory("solve workspace"))?;
-        let factor_values = vec![0.0; symbolic.len_val()];
+        let factor = CholeskySolver::analyse_as(
+            &matrix,
+            settings.factorization,
+            "box QP Cholesky factor of A",
+        )?;
         Ok(Self {
             matrix,
             settings,
             diagonal,
-            symbolic,
-            parallelism,
-            factor_values,
-            factorized: false,
-            factorization_memory,
-            solve_memory,
+            factor,
         })
     }
 
     /// Whether the Cholesky factor of `A` is supernodal (see [`FactorKind`]).
     pub fn is_supernodal(&self) -> bool {
-        matches!(self.symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_))
+        self.factor.is_supernodal()
     }
 
     /// The matrix `A` (in canonical storage: sorted row indices in each column).
@@ -641,7 +606,7 @@ impl BoxQpSolver {
                         predicted -= work.gradient[i] * work.projected[i];
                     }
                 }
-                multiply(&self.matrix, &work.projected, &mut work.product);
+                multiply_into(&self.matrix, &work.projected, &mut work.product);
                 let mut decrease = 0.0;
                 for i in 0..x.len() {
                     decrease -= work.projected[i] * (work.gradient[i] + 0.5 * work.product[i]);
@@ -793,11 +758,11 @@ impl BoxQpSolver {
             &mut cg.preconditioned,
             &mut cg.scratch,
             stats,
-        );
+        )?;
         cg.search.copy_from_slice(&cg.preconditioned);
         let mut rho = dot(&cg.residual, &cg.preconditioned);
         for _ in 0..cap {
-            multiply(&self.matrix, &cg.search, &mut cg.image);
+            multiply_into(&self.matrix, &cg.search, &mut cg.image);
             for i in 0..n {
                 if fixed[i] {
                     cg.image[i] = 0.0;
@@ -822,7 +787,7 @@ impl BoxQpSolver {
                 &mut cg.preconditioned,
                 &mut cg.scratch,
                 stats,
-            );
+            )?;
             let next_rho = dot(&cg.residual, &cg.preconditioned);
             // Polak–Ribière (flexible) β: robust if the preconditioner is not exactly symmetric.
             let beta = (next_rho
@@ -852,12 +817,12 @@ impl BoxQpSolver {
         z: &mut [f64],
         scratch: &mut [f64],
         stats: &mut BoxQpStats,
-    ) {
+    ) -> Result<()> {
         stats.inner_iterations += 1;
         z.fill(0.0);
         if SMOOTHING {
             gauss_seidel_sweep(&self.matrix, &self.diagonal, fixed, residual, z, false);
-            multiply(&self.matrix, z, scratch);
+            multiply_into(&self.matrix, z, scratch);
             for i in 0..z.len() {
                 scratch[i] = if fixed[i] {
                     0.0
@@ -868,7 +833,7 @@ impl BoxQpSolver {
         } else {
             scratch.copy_from_slice(residual);
         }
-        self.solve_in_place(scratch);
+        self.solve_in_place(scratch)?;
         for i in 0..z.len() {
             if !fixed[i] {
                 z[i] += scratch[i];
@@ -877,45 +842,24 @@ impl BoxQpSolver {
         if SMOOTHING {
             gauss_seidel_sweep(&self.matrix, &self.diagonal, fixed, residual, z, true);
         }
+        Ok(())
     }
 
     /// Numerically factorizes `A` once (the first time a solve needs it).
     fn ensure_factor(&mut self, stats: &mut BoxQpStats) -> Result<()> {
-        if self.factorized {
+        if self.factor.is_factorized() {
             return Ok(());
         }
-        self.symbolic
-            .factorize_numeric_llt::<f64>(
-                &mut self.factor_values,
-                self.matrix.as_ref(),
-                Side::Lower,
-                Default::default(),
-                self.parallelism,
-                MemStack::new(&mut self.factorization_memory),
-                Default::default(),
-            )
-            .map_err(|err| Error::LinearAlgebra {
-                context: "box QP Cholesky factorization of A".into(),
-                message: format!(
-                    "{err:?}: the matrix is not (numerically) symmetric positive definite"
-                ),
-            })?;
+        self.factor.factorize(&self.matrix)?;
         stats.factorizations += 1;
-        self.factorized = true;
         Ok(())
     }
 
     /// Overwrites `rhs` with `A⁻¹ rhs` (the factor must exist).
-    fn solve_in_place(&mut self, rhs: &mut [f64]) {
+    fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<()> {
         let dimension = rhs.len();
-        let rhs = MatMut::from_column_major_slice_mut(rhs, dimension, 1);
-        LltRef::<'_, usize, f64>::new(&self.symbolic, &self.factor_values)
-            .solve_in_place_with_conj(
-                Conj::No,
-                rhs,
-                Par::Seq,
-                MemStack::new(&mut self.solve_memory),
-            );
+        self.factor
+            .solve_block(MatMut::from_column_major_slice_mut(rhs, dimension, 1))
     }
 
     /// Fills the final statistics for the feasible point `x`.
@@ -1007,25 +951,9 @@ fn project(x: &mut [f64], lower: &[f64], upper: &[f64]) {
     }
 }
 
-/// `product = A x` (column-oriented scatter, valid for any stored matrix).
-fn multiply(matrix: &SparseColMat<usize, f64>, x: &[f64], product: &mut [f64]) {
-    product.fill(0.0);
-    let symbolic = matrix.symbolic();
-    let row_indices = symbolic.row_idx();
-    let values = matrix.val();
-    for (column, &x_column) in x.iter().enumerate() {
-        if x_column == 0.0 {
-            continue;
-        }
-        for position in symbolic.col_range(column) {
-            product[row_indices[position]] += values[position] * x_column;
-        }
-    }
-}
-
 /// `gradient = A x − b`.
 fn gradient(matrix: &SparseColMat<usize, f64>, x: &[f64], rhs: &[f64], gradient: &mut [f64]) {
-    multiply(matrix, x, gradient);
+    multiply_into(matrix, x, gradient);
     for (g, b) in gradient.iter_mut().zip(rhs) {
         *g -= b;
     }
@@ -1214,19 +1142,20 @@ mod tests {
 
     type DenseMatrix = Vec<Vec<f64>>;
 
-    /// Small deterministic generator (xorshift64*) for test data.
-    struct TestRng(u64);
+    /// Deterministic test data: proptest's ChaCha generator, seeded.
+    struct TestRng(proptest::test_runner::TestRng);
 
     impl TestRng {
         fn new(seed: u64) -> Self {
-            Self(seed.wrapping_mul(0x9E37_79B9_7F4A_7C15) | 1)
+            let mut bytes = [0u8; 32];
+            bytes[..8].copy_from_slice(&seed.to_le_bytes());
+            Self(proptest::test_runner::TestRng::from_seed(
+                proptest::test_runner::RngAlgorithm::ChaCha,
+                &bytes,
+            ))
         }
         fn unit(&mut self) -> f64 {
-            self.0 ^= self.0 >> 12;
-            self.0 ^= self.0 << 25;
-            self.0 ^= self.0 >> 27;
-            let bits = self.0.wrapping_mul(0x2545_F491_4F6C_DD1D) >> 11;
-            bits as f64 / (1u64 << 53) as f64
+            self.0.random::<f64>()
         }
         fn uniform(&mut self, low: f64, high: f64) -> f64 {
             low + (high - low) * self.unit()

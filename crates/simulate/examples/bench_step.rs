@@ -234,7 +234,12 @@ fn measure<const D: usize>(cells: usize) -> Result<String, Failure> {
     let mut kkt = [0.0f64; 2];
     for m in 0..MEASURED_STEPS {
         let started = Instant::now();
-        let (velocity, damage, normal_pressure, friction_bound) = simulation.step()?;
+        let contact_damage::StepOutcome {
+            velocity,
+            damage,
+            normal_pressure,
+            friction_bound,
+        } = simulation.step()?;
         total += started.elapsed().as_secs_f64();
         let started = Instant::now();
         let state = simulation.state();
