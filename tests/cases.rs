@@ -6,8 +6,10 @@
 //! (≈1e-7 relative); the contact, friction and damage-inclusion conditions are algebraic and
 //! hold to round-off.
 
+use contact_damage::mesh::{BoundaryPart::Contact, Mesh};
 use nalgebra::SVector;
 use verify::case::{parse_case_file, Case};
+use verify::domain::Domain;
 use verify::cli::BUILT_IN_CASES;
 use verify::manufactured::{jet, value, value_gradient};
 
@@ -31,7 +33,61 @@ fn load<const D: usize>(name: &str) -> Case<D> {
         .chain(&OTHER_CASES)
         .find(|(n, _)| *n == name)
         .unwrap();
-    Case::new(parse_case_file(text, name).unwrap(), name).unwrap()
+    let origin = format!("built-in:{name}");
+    Case::new(parse_case_file(text, &origin).unwrap(), &origin).unwrap()
+}
+
+/// A random point of Ω: of the unit box (away from its sides) for a box case, of a random cell
+/// of `mesh` (by random barycentric coordinates) for a mesh case.
+fn interior_point<const D: usize>(case: &Case<D>, mesh: &Mesh<D>, rng: &mut Rng) -> [f64; D] {
+    match case.domain {
+        Domain::Box { .. } => std::array::from_fn(|_| 0.05 + 0.9 * rng.uniform()),
+        Domain::Mesh { .. } => {
+            let cell = mesh.cell((rng.uniform() * mesh.num_cells() as f64) as usize);
+            barycentric_point(mesh, cell, rng)
+        }
+    }
+}
+
+/// A random point of Γ3 with the outward unit normal there: of the box side x_a = 0 that is
+/// Γ3, or of a random Γ3 facet of `mesh`.
+fn contact_point<const D: usize>(
+    case: &Case<D>,
+    mesh: &Mesh<D>,
+    rng: &mut Rng,
+) -> ([f64; D], [f64; D]) {
+    match &case.domain {
+        Domain::Box { sides, .. } => {
+            let axis = (0..D).find(|&a| sides[a][0] == Contact).unwrap();
+            let mut normal = [0.0; D];
+            normal[axis] = -1.0;
+            let mut x: [f64; D] = std::array::from_fn(|_| 0.02 + 0.96 * rng.uniform());
+            x[axis] = 0.0;
+            (x, normal)
+        }
+        Domain::Mesh { .. } => {
+            let facets: Vec<usize> = (0..mesh.num_facets())
+                .filter(|&f| mesh.facet_part(f) == Contact)
+                .collect();
+            let f = facets[(rng.uniform() * facets.len() as f64) as usize];
+            (
+                barycentric_point(mesh, mesh.facet(f), rng),
+                mesh.facet_normal(f),
+            )
+        }
+    }
+}
+
+fn barycentric_point<const D: usize>(mesh: &Mesh<D>, corners: &[usize], rng: &mut Rng) -> [f64; D] {
+    let weights: Vec<f64> = corners.iter().map(|_| 0.05 + rng.uniform()).collect();
+    let total: f64 = weights.iter().sum();
+    std::array::from_fn(|i| {
+        corners
+            .iter()
+            .zip(&weights)
+            .map(|(&v, w)| mesh.vertex(v)[i] * w / total)
+            .sum()
+    })
 }
 
 #[derive(Default, Debug)]
@@ -51,8 +107,9 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
     let mut rng = Rng(42);
     let final_time = case.file.final_time;
     let mut zones = Zones::default();
+    let fine = case.mesh(1).unwrap();
     for _ in 0..200 {
-        let x: [f64; D] = std::array::from_fn(|_| 0.05 + 0.9 * rng.uniform());
+        let x = interior_point(&case, &fine, &mut rng);
         let t = final_time * rng.uniform();
         // (2.3): Div σ + f0 = 0, Div σ by central differences of σ
         let h = 1e-5;
@@ -107,15 +164,9 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
         }
     }
     // (2.7)–(2.8) with f3 on Γ3: r = σν − f3 satisfies r_ν = −p_ν and −r_τ ∈ p_τ ∂|·|(u̇_τ)
-    let contact_axis = (0..D)
-        .find(|&a| case.sides[a][0] == contact_damage::mesh::BoundaryPart::Contact)
-        .unwrap();
-    let mut normal = [0.0; D];
-    normal[contact_axis] = -1.0;
-    let nu = SVector::<f64, D>::from_column_slice(&normal);
     for _ in 0..400 {
-        let mut x: [f64; D] = std::array::from_fn(|_| 0.02 + 0.96 * rng.uniform());
-        x[contact_axis] = 0.0;
+        let (x, normal) = contact_point(&case, &fine, &mut rng);
+        let nu = SVector::<f64, D>::from_column_slice(&normal);
         let t = final_time * rng.uniform();
         let state = exact.point_state(&x, t);
         let sigma_n = exact.stress(laws, &state) * nu;

@@ -75,6 +75,7 @@ fn assert_study(study: &StudyResult) {
 fn levels(cells: &[usize], steps: &[usize]) -> LevelStudy {
     LevelStudy {
         cells: cells.to_vec(),
+        refinements: Vec::new(),
         steps: steps.to_vec(),
     }
 }
@@ -96,6 +97,7 @@ fn studies_2d_order1(name: &str) {
         cells: 16,
         steps: vec![4, 8, 16],
         reference_steps: 64,
+        refinements: None,
     };
     assert_study(&time_study(&case, 1, &k).unwrap());
 }
@@ -117,6 +119,7 @@ fn studies_2d_order2(name: &str) {
         cells: 8,
         steps: vec![4, 8, 16],
         reference_steps: 64,
+        refinements: None,
     };
     assert_study(&time_study(&case, 2, &k).unwrap());
 }
@@ -130,6 +133,7 @@ fn studies_3d_order1(name: &str) {
         cells: 3,
         steps: vec![16, 32, 64],
         reference_steps: 256,
+        refinements: None,
     };
     assert_study(&time_study(&case, 1, &k).unwrap());
 }
@@ -142,6 +146,7 @@ fn studies_3d_order2(name: &str) {
         cells: 2,
         steps: vec![32, 64, 128],
         reference_steps: 512,
+        refinements: None,
     };
     assert_study(&time_study(&case, 2, &k).unwrap());
 }

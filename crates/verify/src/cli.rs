@@ -9,8 +9,9 @@ use clap::Parser;
 pub use contact_input::threads::{max_threads, set_threads};
 use std::path::PathBuf;
 
-/// Built-in cases: (name, TOML text). The files live in `verification/`.
-pub const BUILT_IN_CASES: [(&str, &str); 13] = [
+/// Built-in cases: (name, TOML text). The files live in `verification/`; the meshes of the
+/// cases on Gmsh meshes are built in too ([`crate::domain::BUILT_IN_MESHES`]).
+pub const BUILT_IN_CASES: [(&str, &str); 15] = [
     ("slip2d", include_str!("../../../verification/slip2d.toml")),
     (
         "zones2d",
@@ -45,6 +46,14 @@ pub const BUILT_IN_CASES: [(&str, &str); 13] = [
         include_str!("../../../verification/strong3d.toml"),
     ),
     ("wear3d", include_str!("../../../verification/wear3d.toml")),
+    (
+        "tilted2d",
+        include_str!("../../../verification/tilted2d.toml"),
+    ),
+    (
+        "tilted3d",
+        include_str!("../../../verification/tilted3d.toml"),
+    ),
 ];
 
 /// Manufactured-solution convergence verification of the contact-damage scheme (Theorem 5.2).
@@ -57,7 +66,7 @@ pub struct Cli {
     /// Space dimension of the default case (2 or 3); ignored with --case.
     #[arg(long, default_value_t = 2)]
     pub dim: usize,
-    /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d, mild2d, strong2d, wear2d, carreau2d, implicit2d, loads2d, mild3d, strong3d, wear3d).
+    /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d, mild2d, strong2d, wear2d, carreau2d, implicit2d, loads2d, mild3d, strong3d, wear3d, tilted2d, tilted3d).
     #[arg(long)]
     pub case: Option<String>,
     /// Use only the first (coarsest) N levels of every study.
@@ -167,6 +176,7 @@ pub fn run_studies<const D: usize>(
                 if let Some(study) = &set.h {
                     let mut study = study.clone();
                     study.cells = truncate(&study.cells, cli.levels);
+                    study.refinements = truncate(&study.refinements, cli.levels);
                     study.steps = truncate(&study.steps, cli.levels);
                     results.push(level_study(case, cli.order, StudyKind::H, &study)?);
                 }
@@ -175,6 +185,7 @@ pub fn run_studies<const D: usize>(
                 if let Some(study) = &set.diagonal {
                     let mut study = study.clone();
                     study.cells = truncate(&study.cells, cli.levels);
+                    study.refinements = truncate(&study.refinements, cli.levels);
                     study.steps = truncate(&study.steps, cli.levels);
                     results.push(level_study(case, cli.order, StudyKind::Diagonal, &study)?);
                 }
