@@ -23,6 +23,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
 
+pub use crate::domain::{DomainFile, GroupFile};
 pub use contact_input::laws::{
     ContactFile, DamageSourceFile, ElasticityFile, ExpressionDamageSource, ExpressionModuli,
     ExpressionPotential, LawsFile, ViscosityFile, MODULI_VARIABLES, POTENTIAL_VARIABLES,
@@ -30,7 +31,6 @@ pub use contact_input::laws::{
 };
 pub use contact_input::scheme::{ContactTreatmentFile, SchemeFile};
 pub use contact_input::sides::parse_sides;
-pub use crate::domain::{DomainFile, GroupFile};
 
 /// The variables of the exact-field expressions.
 pub const FIELD_VARIABLES: [&str; 4] = ["x", "y", "z", "t"];
@@ -538,8 +538,7 @@ impl<const D: usize> Case<D> {
                         i
                     });
                     let x: [f64; D] = std::array::from_fn(|i| {
-                        lower[i]
-                            + (upper[i] - lower[i]) * lattice[i] as f64 / (per_axis - 1) as f64
+                        lower[i] + (upper[i] - lower[i]) * lattice[i] as f64 / (per_axis - 1) as f64
                     });
                     // which sides is x on?
                     let mut parts = Vec::new();
@@ -591,77 +590,77 @@ impl<const D: usize> Case<D> {
         let times: Vec<f64> = (0..=4)
             .map(|i| self.file.final_time * i as f64 / 4.0)
             .collect();
-    for &t in &times {
-        let at = || format!("at x = {x:?}, t = {t}");
-        let beta = value(&self.exact.damage, &x, t);
-        if !(-1e-14..=1.0 + 1e-14).contains(&beta) || !beta.is_finite() {
-            return Err(case_error(
-                origin,
-                "exact.beta",
-                format!("β = {beta} is outside [0, 1] {}", at()),
-            ));
-        }
-        let eta = value(&self.exact.damage_multiplier, &x, t);
-        let eta_ok = if beta >= 1.0 - 1e-14 {
-            eta >= 0.0
-        } else if beta <= 1e-14 {
-            eta <= 0.0
-        } else {
-            eta.abs() <= 1e-12
-        };
-        if !eta_ok || !eta.is_finite() {
-            return Err(case_error(
-                origin,
-                "exact.damage_multiplier",
-                format!("η = {eta} is not in ∂ψ_[0,1](β) for β = {beta} {}", at()),
-            ));
-        }
-        for (part, normal) in parts {
-            match part {
-                BoundaryPart::Dirichlet => {
-                    for (i, component) in self.exact.displacement.iter().enumerate() {
-                        let u = value(component, &x, t);
-                        if u.abs() > 1e-12 {
+        for &t in &times {
+            let at = || format!("at x = {x:?}, t = {t}");
+            let beta = value(&self.exact.damage, &x, t);
+            if !(-1e-14..=1.0 + 1e-14).contains(&beta) || !beta.is_finite() {
+                return Err(case_error(
+                    origin,
+                    "exact.beta",
+                    format!("β = {beta} is outside [0, 1] {}", at()),
+                ));
+            }
+            let eta = value(&self.exact.damage_multiplier, &x, t);
+            let eta_ok = if beta >= 1.0 - 1e-14 {
+                eta >= 0.0
+            } else if beta <= 1e-14 {
+                eta <= 0.0
+            } else {
+                eta.abs() <= 1e-12
+            };
+            if !eta_ok || !eta.is_finite() {
+                return Err(case_error(
+                    origin,
+                    "exact.damage_multiplier",
+                    format!("η = {eta} is not in ∂ψ_[0,1](β) for β = {beta} {}", at()),
+                ));
+            }
+            for (part, normal) in parts {
+                match part {
+                    BoundaryPart::Dirichlet => {
+                        for (i, component) in self.exact.displacement.iter().enumerate() {
+                            let u = value(component, &x, t);
+                            if u.abs() > 1e-12 {
+                                return Err(case_error(
+                                    origin,
+                                    &format!("exact.u[{i}]"),
+                                    format!("u = {u} ≠ 0 on Γ1 (clamped side) {}", at()),
+                                ));
+                            }
+                        }
+                    }
+                    BoundaryPart::Contact => {
+                        let gap = value(&self.exact.gap, &x, t);
+                        if !gap.is_finite() {
                             return Err(case_error(
                                 origin,
-                                &format!("exact.u[{i}]"),
-                                format!("u = {u} ≠ 0 on Γ1 (clamped side) {}", at()),
+                                "exact.gap",
+                                format!("g = {gap} is not finite on Γ3 {}", at()),
+                            ));
+                        }
+                        let xi: Vec<f64> = self
+                            .exact
+                            .stick_traction
+                            .iter()
+                            .map(|e| value(e, &x, t))
+                            .collect();
+                        let normal_part: f64 = xi.iter().zip(normal).map(|(a, b)| a * b).sum();
+                        let tangential = (xi.iter().map(|v| v * v).sum::<f64>()
+                            - normal_part * normal_part)
+                            .max(0.0)
+                            .sqrt();
+                        if tangential >= 1.0 {
+                            return Err(case_error(
+                                origin,
+                                "exact.stick_traction",
+                                format!("|ξ_τ| = {tangential} ≥ 1 on Γ3 {}", at()),
                             ));
                         }
                     }
+                    BoundaryPart::Neumann => {}
                 }
-                BoundaryPart::Contact => {
-                    let gap = value(&self.exact.gap, &x, t);
-                    if !gap.is_finite() {
-                        return Err(case_error(
-                            origin,
-                            "exact.gap",
-                            format!("g = {gap} is not finite on Γ3 {}", at()),
-                        ));
-                    }
-                    let xi: Vec<f64> = self
-                        .exact
-                        .stick_traction
-                        .iter()
-                        .map(|e| value(e, &x, t))
-                        .collect();
-                    let normal_part: f64 = xi.iter().zip(normal).map(|(a, b)| a * b).sum();
-                    let tangential = (xi.iter().map(|v| v * v).sum::<f64>()
-                        - normal_part * normal_part)
-                        .max(0.0)
-                        .sqrt();
-                    if tangential >= 1.0 {
-                        return Err(case_error(
-                            origin,
-                            "exact.stick_traction",
-                            format!("|ξ_τ| = {tangential} ≥ 1 on Γ3 {}", at()),
-                        ));
-                    }
-                }
-                BoundaryPart::Neumann => {}
             }
         }
-    }
         Ok(())
     }
 

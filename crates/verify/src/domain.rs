@@ -196,7 +196,7 @@ pub fn read_mesh<const D: usize>(
         .find(|(_, groups)| {
             groups
                 .iter()
-                .any(|group| message.contains(&group.to_ref().to_string()))
+                .any(|group| message.contains(&format!("group {}", group.to_ref())))
         })
         .map_or("domain.mesh", |(key, _)| key);
         case_error(origin, key, message)

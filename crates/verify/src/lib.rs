@@ -15,8 +15,8 @@
 //! - [`cli`]: the `verify` command line.
 
 pub mod case;
-pub mod domain;
 pub mod cli;
+pub mod domain;
 pub mod errors;
 pub mod manufactured;
 pub mod plot;
