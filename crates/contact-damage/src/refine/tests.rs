@@ -170,3 +170,66 @@ fn refined_facets_follow_their_parents() {
     let mesh = refine_times(&square(), 0).unwrap();
     assert_eq!(mesh.num_cells(), square().num_cells());
 }
+
+/// The meshes of the built-in cases on Gmsh meshes (unstructured, tilted contact boundary).
+const TILTED2D: &[u8] = include_bytes!("../../../../verification/meshes/tilted2d.msh");
+const TILTED3D: &[u8] = include_bytes!("../../../../verification/meshes/tilted3d.msh");
+
+fn groups() -> crate::gmsh::PhysicalMap {
+    crate::gmsh::PhysicalMap::by_names(&["clamped"], &["traction"], &["contact"])
+}
+
+/// The facets of one physical group: the Γ1 facets of the file read with that group alone
+/// as Γ1 (the reader keeps the order of the facets).
+fn group_facets<const D: usize>(bytes: &[u8], group: &str) -> Vec<usize> {
+    let others: Vec<&str> = ["clamped", "traction", "contact"]
+        .into_iter()
+        .filter(|g| *g != group)
+        .collect();
+    let map = crate::gmsh::PhysicalMap::by_names(&[group], &others, &[]);
+    let mesh = crate::gmsh::parse_msh_bytes::<D>(bytes, "tilted.msh", &map).unwrap();
+    (0..mesh.num_facets())
+        .filter(|&f| mesh.facet_part(f) == Dirichlet)
+        .collect()
+}
+
+/// Refinement of a Gmsh mesh keeps its physical groups: every level passes the mesh validity
+/// checks, each group's facets map to the children (same part, same measure), and the
+/// tetrahedra stay shape-regular.
+fn check_gmsh_levels<const D: usize>(bytes: &[u8]) {
+    let coarse = crate::gmsh::parse_msh_bytes::<D>(bytes, "tilted.msh", &groups()).unwrap();
+    check_levels(&coarse);
+    let q0 = shape_regularity(&coarse);
+    let mut level = coarse.clone();
+    let mut facets: Vec<(&str, Vec<usize>)> = ["clamped", "traction", "contact"]
+        .into_iter()
+        .map(|g| (g, group_facets::<D>(bytes, g)))
+        .collect();
+    let group_measure = |mesh: &Mesh<D>, facets: &[usize]| -> f64 {
+        facets.iter().map(|&f| mesh.facet_measure(f)).sum()
+    };
+    let measures: Vec<f64> = facets
+        .iter()
+        .map(|(_, f)| group_measure(&coarse, f))
+        .collect();
+    for _ in 0..2 {
+        level = refine_uniform(&level).unwrap();
+        for ((name, group), measure) in facets.iter_mut().zip(&measures) {
+            let part = level.facet_part(group[0] << (D - 1));
+            *group = refined_facets::<D>(group);
+            assert!(group.iter().all(|&f| level.facet_part(f) == part), "{name}");
+            let refined = group_measure(&level, group);
+            assert!(
+                (refined - measure).abs() < 1e-12 * measure,
+                "{name}: {refined} vs {measure}"
+            );
+        }
+        assert!(shape_regularity(&level) <= 2.0 * q0);
+    }
+}
+
+#[test]
+fn refinement_of_gmsh_meshes_keeps_the_physical_groups() {
+    check_gmsh_levels::<2>(TILTED2D);
+    check_gmsh_levels::<3>(TILTED3D);
+}
