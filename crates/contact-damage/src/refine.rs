@@ -41,7 +41,7 @@ pub fn refine_uniform<const D: usize>(mesh: &Mesh<D>) -> Result<Mesh<D>> {
         })
     };
 
-    let mut cells = Vec::with_capacity(mesh.num_cells() * (D + 1) << D);
+    let mut cells = Vec::with_capacity((mesh.num_cells() * (D + 1)) << D);
     for c in 0..mesh.num_cells() {
         let v = mesh.cell(c).to_vec();
         // m[i][j]: midpoint of edge (i, j), m[i][i] = vertex i
@@ -69,7 +69,7 @@ pub fn refine_uniform<const D: usize>(mesh: &Mesh<D>) -> Result<Mesh<D>> {
         }
     }
 
-    let mut facets = Vec::with_capacity(mesh.num_facets() * D << (D - 1));
+    let mut facets = Vec::with_capacity((mesh.num_facets() * D) << (D - 1));
     let mut parts = Vec::with_capacity(mesh.num_facets() << (D - 1));
     for f in 0..mesh.num_facets() {
         let v = mesh.facet(f).to_vec();
