@@ -6,10 +6,12 @@
 //! (≈1e-7 relative); the contact, friction and damage-inclusion conditions are algebraic and
 //! hold to round-off.
 
+use contact_damage::mesh::{BoundaryPart::Contact, Mesh};
 use nalgebra::SVector;
 use verify::case::{parse_case_file, Case};
 use verify::cli::BUILT_IN_CASES;
-use verify::manufactured::{jet, value, value_gradient};
+use verify::domain::Domain;
+use verify::manufactured::{jet, tangential_part, value, value_gradient, SLIP_ROUNDOFF};
 
 /// Sample points: proptest's ChaCha generator with a fixed seed.
 struct Rng(proptest::test_runner::TestRng);
@@ -35,7 +37,61 @@ fn load<const D: usize>(name: &str) -> Case<D> {
         .chain(&OTHER_CASES)
         .find(|(n, _)| *n == name)
         .unwrap();
-    Case::new(parse_case_file(text, name).unwrap(), name).unwrap()
+    let origin = format!("built-in:{name}");
+    Case::new(parse_case_file(text, &origin).unwrap(), &origin).unwrap()
+}
+
+/// A random point of Ω: of the unit box (away from its sides) for a box case, of a random cell
+/// of `mesh` (by random barycentric coordinates) for a mesh case.
+fn interior_point<const D: usize>(case: &Case<D>, mesh: &Mesh<D>, rng: &mut Rng) -> [f64; D] {
+    match case.domain {
+        Domain::Box { .. } => std::array::from_fn(|_| 0.05 + 0.9 * rng.uniform()),
+        Domain::Mesh { .. } => {
+            let cell = mesh.cell((rng.uniform() * mesh.num_cells() as f64) as usize);
+            barycentric_point(mesh, cell, rng)
+        }
+    }
+}
+
+/// A random point of Γ3 with the outward unit normal there: of the box side x_a = 0 that is
+/// Γ3, or of a random Γ3 facet of `mesh`.
+fn contact_point<const D: usize>(
+    case: &Case<D>,
+    mesh: &Mesh<D>,
+    rng: &mut Rng,
+) -> ([f64; D], [f64; D]) {
+    match &case.domain {
+        Domain::Box { sides, .. } => {
+            let axis = (0..D).find(|&a| sides[a][0] == Contact).unwrap();
+            let mut normal = [0.0; D];
+            normal[axis] = -1.0;
+            let mut x: [f64; D] = std::array::from_fn(|_| 0.02 + 0.96 * rng.uniform());
+            x[axis] = 0.0;
+            (x, normal)
+        }
+        Domain::Mesh { .. } => {
+            let facets: Vec<usize> = (0..mesh.num_facets())
+                .filter(|&f| mesh.facet_part(f) == Contact)
+                .collect();
+            let f = facets[(rng.uniform() * facets.len() as f64) as usize];
+            (
+                barycentric_point(mesh, mesh.facet(f), rng),
+                mesh.facet_normal(f),
+            )
+        }
+    }
+}
+
+fn barycentric_point<const D: usize>(mesh: &Mesh<D>, corners: &[usize], rng: &mut Rng) -> [f64; D] {
+    let weights: Vec<f64> = corners.iter().map(|_| 0.05 + rng.uniform()).collect();
+    let total: f64 = weights.iter().sum();
+    std::array::from_fn(|i| {
+        corners
+            .iter()
+            .zip(&weights)
+            .map(|(&v, w)| mesh.vertex(v)[i] * w / total)
+            .sum()
+    })
 }
 
 #[derive(Default, Debug)]
@@ -55,8 +111,9 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
     let mut rng = Rng::new(42);
     let final_time = case.file.final_time;
     let mut zones = Zones::default();
+    let fine = case.mesh(1).unwrap();
     for _ in 0..200 {
-        let x: [f64; D] = std::array::from_fn(|_| 0.05 + 0.9 * rng.uniform());
+        let x = interior_point(&case, &fine, &mut rng);
         let t = final_time * rng.uniform();
         // (2.3): Div σ + f0 = 0, Div σ by central differences of σ
         let h = 1e-5;
@@ -111,15 +168,9 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
         }
     }
     // (2.7)–(2.8) with f3 on Γ3: r = σν − f3 satisfies r_ν = −p_ν and −r_τ ∈ p_τ ∂|·|(u̇_τ)
-    let contact_axis = (0..D)
-        .find(|&a| case.sides[a][0] == contact_damage::mesh::BoundaryPart::Contact)
-        .unwrap();
-    let mut normal = [0.0; D];
-    normal[contact_axis] = -1.0;
-    let nu = SVector::<f64, D>::from_column_slice(&normal);
     for _ in 0..400 {
-        let mut x: [f64; D] = std::array::from_fn(|_| 0.02 + 0.96 * rng.uniform());
-        x[contact_axis] = 0.0;
+        let (x, normal) = contact_point(&case, &fine, &mut rng);
+        let nu = SVector::<f64, D>::from_column_slice(&normal);
         let t = final_time * rng.uniform();
         let state = exact.point_state(&x, t);
         let sigma_n = exact.stress(laws, &state) * nu;
@@ -134,17 +185,19 @@ fn check_strong_form<const D: usize>(name: &str) -> Zones {
         let scale = 1.0 + sigma_n.norm();
         assert!(
             (r.dot(&nu) + p_normal).abs() < 1e-12 * scale,
-            "{name}: r_ν ≠ −p_ν"
+            "{name}: r_ν = {} ≠ −p_ν = {} at {x:?}, ν = {normal:?}",
+            r.dot(&nu),
+            -p_normal
         );
         let r_tangential = r - nu * r.dot(&nu);
-        let slip = state.velocity - nu * state.velocity.dot(&nu);
+        let slip = tangential_part(&state.velocity, &nu);
         if penetration > 0.0 && p_friction == 0.0 {
             zones.frictionless += 1;
         }
         if penetration <= 0.0 {
             zones.separation += 1;
             assert!(r_tangential.norm() < 1e-12 * scale);
-        } else if slip.norm() > 0.0 {
+        } else if slip.norm() > SLIP_ROUNDOFF * state.velocity.norm() {
             zones.slip += 1;
             assert!(
                 (-r_tangential - slip / slip.norm() * p_friction).norm() < 1e-12 * scale,
@@ -428,6 +481,158 @@ fn case_reader_rejects_a_gap_that_is_not_finite() {
     let message = error_of("gap = \"0.01\"", "gap = \"0.01 + log(x - 0.5)\"");
     assert!(
         message.contains("exact.gap") && message.contains("not finite"),
+        "{message}"
+    );
+}
+
+// Cases on Gmsh meshes: the rotated zones cases on their committed meshes.
+
+#[test]
+fn tilted_cases_satisfy_their_strong_form_with_all_zones_on_the_tilted_contact_boundary() {
+    let zones = check_strong_form::<2>("tilted2d");
+    assert_all_zones(&zones);
+    let zones = check_strong_form::<3>("tilted3d");
+    assert_all_zones(&zones);
+    // the contact boundary is not axis-aligned: its normal has two nonzero components
+    let case = load::<3>("tilted3d");
+    let mesh = case.mesh(0).unwrap();
+    let f = (0..mesh.num_facets())
+        .find(|&f| mesh.facet_part(f) == Contact)
+        .unwrap();
+    let normal = mesh.facet_normal(f);
+    assert!(
+        normal.iter().filter(|n| n.abs() > 0.1).count() >= 2,
+        "{normal:?}"
+    );
+}
+
+const TILTED2D: &str = include_str!("../verification/tilted2d.toml");
+const TILTED2D_MESH: &[u8] = include_bytes!("../verification/meshes/tilted2d.msh");
+
+/// tilted2d with `replace` replaced by `with`, written into a fresh folder with its mesh at
+/// `meshes/tilted2d.msh` (unless `mesh` is None), and read from there.
+fn tilted_case_on_disk(
+    replace: &str,
+    with: &str,
+    mesh: Option<&[u8]>,
+) -> (tempfile::TempDir, Result<Case<2>, verify::VerifyError>) {
+    assert!(TILTED2D.contains(replace), "test setup: `{replace}`");
+    let folder = tempfile::tempdir().unwrap();
+    if let Some(bytes) = mesh {
+        std::fs::create_dir(folder.path().join("meshes")).unwrap();
+        std::fs::write(folder.path().join("meshes/tilted2d.msh"), bytes).unwrap();
+    }
+    let path = folder.path().join("my_case.toml");
+    std::fs::write(&path, TILTED2D.replacen(replace, with, 1)).unwrap();
+    let case = verify::case::read_case_file(&path)
+        .and_then(|file| Case::<2>::new(file, &path.display().to_string()));
+    (folder, case)
+}
+
+fn tilted_error(replace: &str, with: &str, mesh: Option<&[u8]>) -> String {
+    match tilted_case_on_disk(replace, with, mesh).1 {
+        Ok(_) => panic!("the case with `{with}` should be rejected"),
+        Err(e) => e.to_string(),
+    }
+}
+
+#[test]
+fn a_case_file_reads_its_mesh_relative_to_its_folder_and_refines_it() {
+    let (_folder, case) = tilted_case_on_disk("name", "name", Some(TILTED2D_MESH));
+    let case = case.unwrap();
+    let (coarse, fine) = (case.mesh(0).unwrap(), case.mesh(2).unwrap());
+    assert_eq!(fine.num_cells(), 16 * coarse.num_cells());
+    assert!((fine.max_cell_diameter() - 0.25 * coarse.max_cell_diameter()).abs() < 1e-14);
+}
+
+#[test]
+fn bad_domain_mesh_input_gets_an_error_naming_the_file_and_the_key() {
+    // no such file
+    let message = tilted_error("name", "name", None);
+    assert!(
+        message.contains("my_case.toml")
+            && message.contains("key `domain.mesh`")
+            && message.contains("meshes/tilted2d.msh"),
+        "{message}"
+    );
+    // not a Gmsh file
+    let message = tilted_error(
+        "name",
+        "name",
+        Some(b"$MeshFormat\n2.2 0 8\n$EndMeshFormat\n"),
+    );
+    assert!(
+        message.contains("key `domain.mesh`")
+            && message.contains("tilted2d.msh:2")
+            && message.contains("4.1"),
+        "{message}"
+    );
+    // a group the file lacks
+    let message = tilted_error(
+        "contact = [\"contact\"]",
+        "contact = [\"foundation\"]",
+        Some(TILTED2D_MESH),
+    );
+    assert!(
+        message.contains("key `domain.contact`") && message.contains("\"foundation\""),
+        "{message}"
+    );
+    // the contact group left out: its facets are untagged boundary facets
+    let message = tilted_error("contact = [\"contact\"]", "", Some(TILTED2D_MESH));
+    assert!(
+        message.contains("key `domain.mesh`") && message.contains("no boundary part"),
+        "{message}"
+    );
+    // a box and a mesh at once
+    let message = tilted_error(
+        "[domain]",
+        "[domain]\nlower = [0.0, 0.0]",
+        Some(TILTED2D_MESH),
+    );
+    assert!(
+        message.contains("key `domain.lower`") && message.contains("not both"),
+        "{message}"
+    );
+    // box levels on a mesh, and too many refinements
+    let message = tilted_error(
+        "h = { refinements = [0, 1, 2, 3]",
+        "h = { cells = [4, 8, 16, 32]",
+        Some(TILTED2D_MESH),
+    );
+    assert!(
+        message.contains("key `studies.order1.h.cells`") && message.contains("refinements"),
+        "{message}"
+    );
+    let message = tilted_error(
+        "h = { refinements = [0, 1, 2, 3]",
+        "h = { refinements = [0, 1, 2, 30]",
+        Some(TILTED2D_MESH),
+    );
+    assert!(
+        message.contains("key `studies.order1.h.refinements`")
+            && message.contains("30 refinements"),
+        "{message}"
+    );
+    let message = tilted_error("k = { refinements = 2,", "k = {", Some(TILTED2D_MESH));
+    assert!(
+        message.contains("key `studies.order1.k.refinements`"),
+        "{message}"
+    );
+}
+
+#[test]
+fn mesh_keys_on_a_box_case_are_rejected_naming_the_key() {
+    let message = error_of("[domain]", "[domain]\ncontact = [\"bottom\"]");
+    assert!(
+        message.contains("key `domain.contact`") && message.contains("domain.mesh"),
+        "{message}"
+    );
+    let message = error_of(
+        "h = { cells = [4, 8, 16, 32]",
+        "h = { refinements = [0, 1, 2, 3]",
+    );
+    assert!(
+        message.contains("key `studies.order1.h.refinements`"),
         "{message}"
     );
 }

@@ -4,7 +4,9 @@
 //! and strong (mild2d/3d, strong2d/3d), the wear-modified friction bound (2.12) (wear2d/3d),
 //! laws written in the case file (carreau2d: a viscosity potential and β-dependent moduli), and
 //! the implicit normal compliance with a stiff foundation (implicit2d), and prescribed
-//! displacement, a roller and a moving, partly negative gap (loads2d).
+//! displacement, a roller and a moving, partly negative gap (loads2d), and the cases on Gmsh
+//! meshes with a tilted contact boundary, unstructured triangles and tetrahedra refined
+//! uniformly (tilted2d/3d).
 //! Each study must pass its verdict (observed least-squares rate ≥ expected − `RATE_TOLERANCE`
 //! for every component bounded by Theorem 5.2), every step's KKT residual must be below 1e-9,
 //! and every case must really show the three contact zones and the active bound.
@@ -18,7 +20,8 @@ fn case<const D: usize>(name: &str) -> Case<D> {
         .iter()
         .find(|(n, _)| *n == name)
         .expect("built-in case");
-    Case::new(parse_case_file(text, name).unwrap(), name).unwrap()
+    let origin = format!("built-in:{name}");
+    Case::new(parse_case_file(text, &origin).unwrap(), &origin).unwrap()
 }
 
 fn assert_study(study: &StudyResult) {
@@ -75,7 +78,27 @@ fn assert_study(study: &StudyResult) {
 fn levels(cells: &[usize], steps: &[usize]) -> LevelStudy {
     LevelStudy {
         cells: cells.to_vec(),
+        refinements: Vec::new(),
         steps: steps.to_vec(),
+    }
+}
+
+/// Levels by uniform refinement of a Gmsh mesh.
+fn refined(refinements: &[usize], steps: &[usize]) -> LevelStudy {
+    LevelStudy {
+        cells: Vec::new(),
+        refinements: refinements.to_vec(),
+        steps: steps.to_vec(),
+    }
+}
+
+/// A k-study on the Gmsh mesh refined `refinements` times.
+fn refined_k(refinements: usize, steps: &[usize], reference_steps: usize) -> TimeStudy {
+    TimeStudy {
+        cells: 0,
+        refinements: Some(refinements),
+        steps: steps.to_vec(),
+        reference_steps,
     }
 }
 
@@ -96,6 +119,7 @@ fn studies_2d_order1(name: &str) {
         cells: 16,
         steps: vec![4, 8, 16],
         reference_steps: 64,
+        refinements: None,
     };
     assert_study(&time_study(&case, 1, &k).unwrap());
 }
@@ -117,6 +141,7 @@ fn studies_2d_order2(name: &str) {
         cells: 8,
         steps: vec![4, 8, 16],
         reference_steps: 64,
+        refinements: None,
     };
     assert_study(&time_study(&case, 2, &k).unwrap());
 }
@@ -130,6 +155,7 @@ fn studies_3d_order1(name: &str) {
         cells: 3,
         steps: vec![16, 32, 64],
         reference_steps: 256,
+        refinements: None,
     };
     assert_study(&time_study(&case, 1, &k).unwrap());
 }
@@ -142,6 +168,7 @@ fn studies_3d_order2(name: &str) {
         cells: 2,
         steps: vec![32, 64, 128],
         reference_steps: 512,
+        refinements: None,
     };
     assert_study(&time_study(&case, 2, &k).unwrap());
 }
@@ -256,4 +283,51 @@ fn rates_wear_3d_order1() {
 #[test]
 fn rates_wear_3d_order2() {
     studies_3d_order2("wear3d");
+}
+
+// Cases on Gmsh meshes: unstructured triangles and tetrahedra, levels by uniform refinement,
+// a tilted contact boundary (the normal frames are not axis-aligned).
+
+#[test]
+fn rates_gmsh_mesh_tilted_contact_2d_order1() {
+    let case = case::<2>("tilted2d");
+    assert_study(&level_study(&case, 1, StudyKind::H, &refined(&[0, 1, 2], &[2, 8, 32])).unwrap());
+    assert_study(
+        &level_study(
+            &case,
+            1,
+            StudyKind::Diagonal,
+            &refined(&[0, 1, 2], &[2, 4, 8]),
+        )
+        .unwrap(),
+    );
+    assert_study(&time_study(&case, 1, &refined_k(2, &[4, 8, 16], 64)).unwrap());
+}
+
+#[test]
+fn rates_gmsh_mesh_tilted_contact_2d_order2() {
+    let case = case::<2>("tilted2d");
+    assert_study(&level_study(&case, 2, StudyKind::H, &refined(&[0, 1, 2], &[4, 16, 64])).unwrap());
+    assert_study(
+        &level_study(
+            &case,
+            2,
+            StudyKind::Diagonal,
+            &refined(&[0, 1, 2], &[2, 6, 16]),
+        )
+        .unwrap(),
+    );
+    assert_study(&time_study(&case, 2, &refined_k(1, &[4, 8, 16], 64)).unwrap());
+}
+
+#[test]
+fn rates_gmsh_mesh_unstructured_tetrahedra_3d_order1() {
+    let case = case::<3>("tilted3d");
+    let h = level_study(&case, 1, StudyKind::H, &refined(&[0, 1], &[2, 8])).unwrap();
+    assert_study(&h);
+    // the shape-regularity measure is recorded per level and stays bounded
+    let (q0, q1) = (h.runs[0].shape_regularity, h.runs[1].shape_regularity);
+    assert!(q0 >= 1.0 && q1 <= 2.0 * q0, "shape regularity {q0} → {q1}");
+    assert_eq!(h.runs[1].mesh_cells, 8 * h.runs[0].mesh_cells);
+    assert_study(&time_study(&case, 1, &refined_k(0, &[16, 32, 64], 256)).unwrap());
 }

@@ -404,6 +404,7 @@ fn the_stored_runs_give_the_errors_of_the_in_memory_studies() {
     let case = Case::<2>::new(parse_case_file(text, "zones2d").unwrap(), "zones2d").unwrap();
     let level = |cells: &[usize], steps: &[usize]| LevelStudy {
         cells: cells.to_vec(),
+        refinements: Vec::new(),
         steps: steps.to_vec(),
     };
     let k = &case.file.studies["order1"].k.clone().unwrap();
@@ -414,6 +415,7 @@ fn the_stored_runs_give_the_errors_of_the_in_memory_studies() {
             1,
             &TimeStudy {
                 cells: k.cells,
+                refinements: None,
                 steps: k.steps[..2].to_vec(),
                 reference_steps: k.reference_steps,
             },

@@ -10,7 +10,7 @@
 //!
 //! Modules, one concept each: [`mesh`], [`quadrature`], [`element`], [`space`], [`assembly`],
 //! [`linalg`], [`laws`], [`contact`], [`dirichlet`], [`friction`], [`velocity`], [`obstacle`],
-//! [`damage`], [`stability`] (the step limit of the explicit terms), [`gmsh`] (mesh files),
+//! [`damage`], [`refine`] (uniform refinement), [`quality`] (shape regularity), [`stability`] (the step limit of the explicit terms), [`gmsh`] (mesh files),
 //! [`vtk`] (ParaView output), [`atomic`] (atomic file writing),
 //! [`scheme`].
 //!
@@ -73,6 +73,8 @@ pub mod mesh;
 pub mod obstacle;
 pub mod ordering;
 pub mod quadrature;
+pub mod quality;
+pub mod refine;
 pub mod scheme;
 pub mod space;
 pub mod stability;

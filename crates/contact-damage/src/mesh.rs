@@ -14,6 +14,9 @@ use nalgebra::SMatrix;
 
 use crate::{Error, Result};
 
+pub use crate::quality::shape_regularity;
+pub use crate::refine::{facet_children, refine_times, refine_uniform, refined_facets};
+
 /// The three parts of the boundary (paper §2): Γ1 clamped (u = 0), Γ2 traction f2, Γ3 contact.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum BoundaryPart {

@@ -12,6 +12,7 @@
 //! box = { lower = [0, 0], upper = [4, 1], cells = [32, 8], sides = { x_min = "clamped", y_min = "contact" } }
 //! # ... or a Gmsh 4.1 file (path relative to the problem file), groups by name or tag:
 //! # gmsh = { file = "part.msh", clamped = ["left"], traction = ["top", 7], contact = ["bottom"] }
+//! #        (optionally `refinements = r`: the mesh refined uniformly r times, groups kept)
 //! [laws]                   # as in the verification case files (README: "Laws in case and problem files")
 //! # ...
 //! [loads]                  # all optional (zero, resp. β0 = 1)
@@ -144,6 +145,9 @@ pub struct DisplacementFile {
     pub z: Option<String>,
 }
 
+/// Most uniform refinements of a Gmsh mesh in a problem file (`mesh.gmsh.refinements`).
+pub const MAX_REFINEMENTS: usize = 8;
+
 /// `[mesh]`: exactly one of `box` and `gmsh`.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -196,6 +200,10 @@ pub struct GmshFile {
     /// Groups of Γ3.
     #[serde(default)]
     pub contact: Vec<GroupFile>,
+    /// Uniform refinements applied to the mesh after reading it (each triangle into 4, each
+    /// tetrahedron into 8; [`contact_damage::mesh::refine_uniform`]); the groups are kept.
+    #[serde(default)]
+    pub refinements: usize,
 }
 
 /// `[loads]`: expressions; missing entries are zero (β0 = 1, g = 0).
@@ -910,7 +918,45 @@ impl<const D: usize> ProblemSetup<D> {
                             .collect(),
                     );
                 }
-                Ok((mesh, facets))
+                if gmsh.refinements == 0 {
+                    return Ok((mesh, facets));
+                }
+                if gmsh.refinements > MAX_REFINEMENTS {
+                    return Err(problem_error(
+                        origin,
+                        "mesh.gmsh.refinements",
+                        format!(
+                            "at most {MAX_REFINEMENTS} (each multiplies the cells by {}), got {}",
+                            1 << D,
+                            gmsh.refinements
+                        ),
+                    ));
+                }
+                let estimate = contact_damage::memory::estimate(
+                    D,
+                    file.degree,
+                    mesh.num_vertices() as f64 * 2f64.powi((D * gmsh.refinements) as i32),
+                );
+                contact_damage::memory::check(
+                    estimate,
+                    contact_damage::memory::default_limit(),
+                    &format!("the problem of {origin} refined {} times", gmsh.refinements),
+                    "--memory-limit",
+                )
+                .map_err(|e| problem_error(origin, "mesh.gmsh.refinements", e.to_string()))?;
+                let refined = contact_damage::mesh::refine_times(&mesh, gmsh.refinements)
+                    .map_err(|e| problem_error(origin, "mesh.gmsh.refinements", e.to_string()))?;
+                let facets = facets
+                    .iter()
+                    .map(|part| {
+                        let mut part = part.clone();
+                        for _ in 0..gmsh.refinements {
+                            part = contact_damage::mesh::refined_facets::<D>(&part);
+                        }
+                        part
+                    })
+                    .collect();
+                Ok((refined, facets))
             }
             _ => Err(problem_error(
                 origin,

@@ -179,7 +179,8 @@ fn bad_requests_are_refused_with_a_clear_message() {
         assert!(stderr.contains(message), "{args:?}: {stderr}");
         assert!(!out.join("level_0").exists(), "{args:?}");
     }
-    // a Gmsh problem cannot be refined yet: said so before anything runs
+    // a Gmsh mesh is refined uniformly, which halves h: another ratio is refused before
+    // anything runs
     let gmsh = scratch.path().join("gmsh.toml");
     let text = std::fs::read_to_string(&problem).unwrap().replace(
         "box = { lower = [0.0, 0.0], upper = [2.0, 1.0], cells = [8, 4], sides = { x_min = \"clamped\", y_min = \"contact\" } }",
@@ -187,11 +188,16 @@ fn bad_requests_are_refused_with_a_clear_message() {
     );
     assert!(text.contains("gmsh ="));
     std::fs::write(&gmsh, text).unwrap();
-    let output = simulate(&["--convergence", "3", gmsh.to_str().unwrap(), "--out", o]);
+    let output = simulate(&[
+        "--convergence",
+        "3",
+        gmsh.to_str().unwrap(),
+        "--out",
+        o,
+        "--ratio",
+        "3",
+    ]);
     let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(
-        stderr.contains("refinement of Gmsh meshes is not available yet"),
-        "{stderr}"
-    );
+    assert!(stderr.contains("use --ratio 2"), "{stderr}");
     assert!(!out.join("level_0").exists());
 }

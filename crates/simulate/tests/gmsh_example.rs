@@ -208,3 +208,46 @@ fn first_two_load_periods_converge_close_and_open_contact_and_damage_the_hole() 
         }
     }
 }
+
+/// `mesh.gmsh.refinements = 1` refines the example's mesh uniformly (what `--convergence`
+/// does per level): four times the triangles, the same area and the same length of every group.
+#[test]
+fn refined_example_mesh_keeps_its_groups() {
+    let coarse = ProblemSetup::<2>::from_path(&example()).unwrap();
+    let dir = scratch("gmsh-refined");
+    let text = std::fs::read_to_string(example()).unwrap();
+    let refined_text = text.replace(
+        "contact = [\"bottom\"] }",
+        "contact = [\"bottom\"], refinements = 1 }",
+    );
+    assert_ne!(text, refined_text);
+    std::fs::copy(
+        example().with_file_name("plate_with_hole_2d.msh"),
+        dir.join("plate_with_hole_2d.msh"),
+    )
+    .unwrap();
+    let path = dir.join("refined.toml");
+    std::fs::write(&path, refined_text).unwrap();
+    let fine = ProblemSetup::<2>::from_path(&path).unwrap();
+    let (coarse, fine) = (&coarse.problem.mesh, &fine.problem.mesh);
+    assert_eq!(fine.num_cells(), 4 * coarse.num_cells());
+    let area = |mesh: &Mesh<2>| {
+        (0..mesh.num_cells())
+            .map(|c| mesh.cell_volume(c))
+            .sum::<f64>()
+    };
+    assert!((area(fine) - area(coarse)).abs() < 1e-12 * area(coarse));
+    for part in [
+        BoundaryPart::Dirichlet,
+        BoundaryPart::Neumann,
+        BoundaryPart::Contact,
+    ] {
+        let length = |mesh: &Mesh<2>| total_length(mesh, &facets_of(mesh, part));
+        assert!(
+            (length(fine) - length(coarse)).abs() < 1e-12 * length(coarse),
+            "{part:?}: {} vs {}",
+            length(fine),
+            length(coarse)
+        );
+    }
+}

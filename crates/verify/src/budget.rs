@@ -6,8 +6,9 @@
 //! study selected must fit under the limit (`--memory-limit`, default the physical memory).
 
 use crate::case::Case;
+use crate::domain::Domain;
 use crate::VerifyError;
-use contact_damage::memory::{check, estimate_box, MemoryEstimate};
+use contact_damage::memory::{check, estimate, estimate_box, MemoryEstimate};
 
 /// Refuses the studies `names` of order `degree` of `case` (each cut to its first `levels`
 /// levels) if the largest needs more than `limit` bytes.
@@ -22,33 +23,43 @@ pub fn check_studies<const D: usize>(
         return Ok(());
     };
     let cut = |count: usize| levels.map_or(count, |levels| levels.min(count));
+    // a level is the cells per side of a box, or the refinements of a mesh (each multiplies
+    // the vertices by about 2^D)
+    let run = |level: usize| match &case.domain {
+        Domain::Box { .. } => estimate_box(&[level; D], degree),
+        Domain::Mesh { mesh, .. } => estimate(
+            D,
+            degree,
+            mesh.num_vertices() as f64 * 2f64.powi((D * level) as i32),
+        ),
+    };
     let sum = |meshes: &[usize]| {
-        meshes
-            .iter()
-            .map(|&cells| estimate_box(&[cells; D], degree))
-            .fold(
-                MemoryEstimate {
-                    unknowns: 0.0,
-                    bytes: 0.0,
-                },
-                |total, run| MemoryEstimate {
-                    unknowns: total.unknowns + run.unknowns,
-                    bytes: total.bytes + run.bytes,
-                },
-            )
+        meshes.iter().map(|&level| run(level)).fold(
+            MemoryEstimate {
+                unknowns: 0.0,
+                bytes: 0.0,
+            },
+            |total, run| MemoryEstimate {
+                unknowns: total.unknowns + run.unknowns,
+                bytes: total.bytes + run.bytes,
+            },
+        )
     };
     for name in names {
         let (label, meshes) = match name.as_str() {
             "h" => match &set.h {
-                Some(study) => ("h", study.cells[..cut(study.cells.len())].to_vec()),
+                Some(study) => ("h", study.levels()[..cut(study.levels().len())].to_vec()),
                 None => continue,
             },
             "diagonal" => match &set.diagonal {
-                Some(study) => ("diagonal", study.cells[..cut(study.cells.len())].to_vec()),
+                Some(study) => (
+                    "diagonal",
+                    study.levels()[..cut(study.levels().len())].to_vec(),
+                ),
                 None => continue,
             },
             "k" => match &set.k {
-                Some(study) => ("k", vec![study.cells; cut(study.steps.len()) + 1]),
+                Some(study) => ("k", vec![study.level(); cut(study.steps.len()) + 1]),
                 None => continue,
             },
             _ => continue,
@@ -57,7 +68,7 @@ pub fn check_studies<const D: usize>(
             sum(&meshes),
             limit,
             &format!(
-                "the {label} study of order {degree} of case `{}` (levels run at once: {meshes:?} cells per side)",
+                "the {label} study of order {degree} of case `{}` (levels run at once: {meshes:?} cells per side or refinements)",
                 case.origin
             ),
             "--memory-limit",

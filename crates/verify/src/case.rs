@@ -4,6 +4,7 @@
 //!
 //! A bad case file gets an error naming the file, the key and the problem.
 
+use crate::domain::{check_levels, read_mesh, sample_points, Domain};
 use crate::expr::Expr;
 use crate::manufactured::data::{
     BodyForce, ContactTraction, DamageFlux, DamageSupply, ExactPrograms, ManufacturedData, Traction,
@@ -22,6 +23,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
 
+pub use crate::domain::{DomainFile, GroupFile};
 pub use contact_input::laws::{
     ContactFile, DamageSourceFile, ElasticityFile, ExpressionDamageSource, ExpressionModuli,
     ExpressionPotential, LawsFile, ViscosityFile, MODULI_VARIABLES, POTENTIAL_VARIABLES,
@@ -46,7 +48,7 @@ pub struct CaseFile {
     pub dim: usize,
     /// Final time T.
     pub final_time: f64,
-    /// The box and its boundary parts.
+    /// The box and its boundary parts, or a Gmsh mesh with its physical groups.
     pub domain: DomainFile,
     /// Named constants usable in every expression.
     #[serde(default)]
@@ -75,19 +77,6 @@ pub struct CaseDisplacementFile {
     pub part: String,
     /// The prescribed components (`"x"`, `"y"`, `"z"`); the others are free.
     pub components: Vec<String>,
-}
-
-/// `[domain]`: a box with a boundary part for each side.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct DomainFile {
-    /// Lower corner.
-    pub lower: Vec<f64>,
-    /// Upper corner.
-    pub upper: Vec<f64>,
-    /// Side name (`x_min`, `x_max`, `y_min`, `y_max`, `z_min`, `z_max`) → `clamped` (Γ1),
-    /// `traction` (Γ2) or `contact` (Γ3).
-    pub sides: BTreeMap<String, String>,
 }
 
 /// `[exact]`: the manufactured fields.
@@ -121,12 +110,18 @@ pub struct StudySet {
     pub diagonal: Option<LevelStudy>,
 }
 
-/// A study over mesh levels, each with its number of time steps.
+/// A study over mesh levels, each with its number of time steps. A box domain gives its
+/// levels by `cells`, a mesh domain by `refinements` (exactly one of them, checked by
+/// [`Case::new`]).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct LevelStudy {
-    /// Cells per side of each level.
+    /// Cells per side of each level (box domains).
+    #[serde(default)]
     pub cells: Vec<usize>,
+    /// Uniform refinements of the mesh of each level (mesh domains).
+    #[serde(default)]
+    pub refinements: Vec<usize>,
     /// Time steps N of each level.
     pub steps: Vec<usize>,
 }
@@ -135,12 +130,34 @@ pub struct LevelStudy {
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TimeStudy {
-    /// Cells per side.
+    /// Cells per side (box domains).
+    #[serde(default)]
     pub cells: usize,
+    /// Uniform refinements of the mesh (mesh domains).
+    #[serde(default)]
+    pub refinements: Option<usize>,
     /// Time steps N of each level.
     pub steps: Vec<usize>,
     /// Steps of the reference run (a common multiple of `steps`).
     pub reference_steps: usize,
+}
+
+impl LevelStudy {
+    /// The level parameter of each run: `refinements` if given, else `cells`.
+    pub fn levels(&self) -> &[usize] {
+        if self.refinements.is_empty() {
+            &self.cells
+        } else {
+            &self.refinements
+        }
+    }
+}
+
+impl TimeStudy {
+    /// The level parameter of the runs: `refinements` if given, else `cells`.
+    pub fn level(&self) -> usize {
+        self.refinements.unwrap_or(self.cells)
+    }
 }
 
 /// A validated case in dimension D.
@@ -150,8 +167,8 @@ pub struct Case<const D: usize> {
     pub file: CaseFile,
     /// Where it came from (a path or `built-in:NAME`).
     pub origin: String,
-    /// Box sides.
-    pub sides: [[BoundaryPart; 2]; D],
+    /// The box or the Gmsh mesh.
+    pub domain: Domain<D>,
     /// Laws (shared with the solver).
     pub laws: Laws<D>,
     /// Exact fields.
@@ -163,10 +180,28 @@ pub struct Case<const D: usize> {
 }
 
 /// Checks the study definitions before anything runs: keys `order1`/`order2`; level studies with
-/// `cells` and `steps` of one length ≥ 2, cells strictly increasing (else h does not change and
-/// the rates are undefined) and steps ≥ 1, nondecreasing; k-studies with ≥ 2 step counts ≥ 1,
-/// strictly increasing, and a reference that is a multiple of each and finer than all.
-fn check_studies(origin: &str, studies: &BTreeMap<String, StudySet>) -> Result<(), VerifyError> {
+/// `cells` (a box domain) or `refinements` (a mesh domain), not the other, and `steps` of one
+/// length ≥ 2, the levels strictly increasing (else h does not change and the rates are
+/// undefined; cells ≥ 1, refinements ≥ 0) and steps ≥ 1, nondecreasing; k-studies with
+/// `cells` ≥ 1 or `refinements` as the domain needs, ≥ 2 step counts ≥ 1, strictly increasing,
+/// and a reference that is a multiple of each and finer than all.
+fn check_studies(
+    origin: &str,
+    studies: &BTreeMap<String, StudySet>,
+    mesh_domain: bool,
+) -> Result<(), VerifyError> {
+    let (wanted, other) = if mesh_domain {
+        ("refinements", "cells")
+    } else {
+        ("cells", "refinements")
+    };
+    let needs = |key: &str| {
+        if mesh_domain {
+            format!("a mesh domain (`domain.mesh`) gives its levels by `refinements`, not `cells`; {key}")
+        } else {
+            format!("a box domain gives its levels by `cells`; `refinements` is for a Gmsh mesh (`domain.mesh`); {key}")
+        }
+    };
     for (order, set) in studies {
         if order != "order1" && order != "order2" {
             return Err(case_error(
@@ -178,24 +213,36 @@ fn check_studies(origin: &str, studies: &BTreeMap<String, StudySet>) -> Result<(
         for (name, study) in [("h", &set.h), ("diagonal", &set.diagonal)] {
             let Some(study) = study else { continue };
             let key = format!("studies.{order}.{name}");
-            if study.cells.len() != study.steps.len() || study.cells.len() < 2 {
+            let (levels, unwanted) = if mesh_domain {
+                (&study.refinements, &study.cells)
+            } else {
+                (&study.cells, &study.refinements)
+            };
+            if !unwanted.is_empty() {
+                return Err(case_error(
+                    origin,
+                    &format!("{key}.{other}"),
+                    needs(&format!("give `{wanted}`")),
+                ));
+            }
+            if levels.len() != study.steps.len() || levels.len() < 2 {
                 return Err(case_error(
                     origin,
                     &key,
                     format!(
-                        "`cells` and `steps` need the same length ≥ 2, got {} and {}",
-                        study.cells.len(),
+                        "`{wanted}` and `steps` need the same length ≥ 2, got {} and {}",
+                        levels.len(),
                         study.steps.len()
                     ),
                 ));
             }
-            if study.cells.contains(&0) || study.cells.windows(2).any(|w| w[0] >= w[1]) {
+            let smallest = usize::from(!mesh_domain);
+            if levels.iter().any(|&l| l < smallest) || levels.windows(2).any(|w| w[0] >= w[1]) {
                 return Err(case_error(
                     origin,
-                    &format!("{key}.cells"),
+                    &format!("{key}.{wanted}"),
                     format!(
-                        "must be ≥ 1 and increase strictly (each level a finer mesh), got {:?}",
-                        study.cells
+                        "must be ≥ {smallest} and increase strictly (each level a finer mesh), got {levels:?}"
                     ),
                 ));
             }
@@ -209,8 +256,32 @@ fn check_studies(origin: &str, studies: &BTreeMap<String, StudySet>) -> Result<(
         }
         if let Some(study) = &set.k {
             let key = format!("studies.{order}.k");
-            if study.cells == 0 {
-                return Err(case_error(origin, &format!("{key}.cells"), "must be ≥ 1"));
+            if mesh_domain {
+                if study.cells != 0 {
+                    return Err(case_error(
+                        origin,
+                        &format!("{key}.cells"),
+                        needs("give `refinements`"),
+                    ));
+                }
+                if study.refinements.is_none() {
+                    return Err(case_error(
+                        origin,
+                        &format!("{key}.refinements"),
+                        "missing (the refinements of the mesh of every run)",
+                    ));
+                }
+            } else {
+                if study.refinements.is_some() {
+                    return Err(case_error(
+                        origin,
+                        &format!("{key}.refinements"),
+                        needs("give `cells`"),
+                    ));
+                }
+                if study.cells == 0 {
+                    return Err(case_error(origin, &format!("{key}.cells"), "must be ≥ 1"));
+                }
             }
             if study.steps.len() < 2
                 || study.steps.contains(&0)
@@ -243,6 +314,107 @@ fn check_studies(origin: &str, studies: &BTreeMap<String, StudySet>) -> Result<(
     Ok(())
 }
 
+/// The domain of the case and the sides with prescribed components (box domains only).
+fn build_domain<const D: usize>(
+    file: &CaseFile,
+    origin: &str,
+) -> Result<(Domain<D>, Vec<PrescribedSide<D>>), VerifyError> {
+    let domain = &file.domain;
+    if domain.is_mesh() {
+        for (key, given) in [
+            ("domain.lower", !domain.lower.is_empty()),
+            ("domain.upper", !domain.upper.is_empty()),
+            ("domain.sides", !domain.sides.is_empty()),
+        ] {
+            if given {
+                return Err(case_error(
+                    origin,
+                    key,
+                    "a domain is a box (`lower`, `upper`, `sides`) or a Gmsh mesh (`mesh` with `clamped`, `traction`, `contact`), not both",
+                ));
+            }
+        }
+        if !file.displacement.is_empty() {
+            return Err(case_error(
+                origin,
+                "displacement",
+                "prescribed components are given on box sides; a mesh domain (`domain.mesh`) has clamped groups only",
+            ));
+        }
+        let domain = read_mesh::<D>(domain, origin)?;
+        if let Domain::Mesh { mesh, .. } = &domain {
+            for (order, set) in &file.studies {
+                for (name, study) in [("h", &set.h), ("diagonal", &set.diagonal)] {
+                    if let Some(study) = study {
+                        let key = format!("studies.{order}.{name}.refinements");
+                        check_levels(mesh, &study.refinements, origin, &key)?;
+                    }
+                }
+                if let Some(study) = &set.k {
+                    let key = format!("studies.{order}.k.refinements");
+                    check_levels(mesh, &[study.level()], origin, &key)?;
+                }
+            }
+        }
+        return Ok((domain, Vec::new()));
+    }
+    for (key, given) in [
+        ("domain.clamped", !domain.clamped.is_empty()),
+        ("domain.traction", !domain.traction.is_empty()),
+        ("domain.contact", !domain.contact.is_empty()),
+    ] {
+        if given {
+            return Err(case_error(
+                origin,
+                key,
+                "physical groups belong to a Gmsh mesh: give `domain.mesh` (or use `sides` for a box)",
+            ));
+        }
+    }
+    if domain.lower.len() != D || domain.upper.len() != D {
+        return Err(case_error(
+            origin,
+            "domain.lower/upper",
+            format!("need {D} coordinates each (or a Gmsh mesh: `domain.mesh`)"),
+        ));
+    }
+    for axis in 0..D {
+        let (low, high) = (domain.lower[axis], domain.upper[axis]);
+        if !(low.is_finite() && high.is_finite() && low < high) {
+            return Err(case_error(
+                origin,
+                "domain.lower/upper",
+                format!(
+                    "need finite coordinates with lower < upper, got lower = {:?}, upper = {:?}",
+                    domain.lower, domain.upper
+                ),
+            ));
+        }
+    }
+    let mut sides = parse_sides::<D>(FileKind::Case, origin, "domain.sides", &domain.sides)?;
+    let parts: Vec<(String, Vec<String>)> = file
+        .displacement
+        .iter()
+        .map(|d| (d.part.clone(), d.components.clone()))
+        .collect();
+    let prescribed = prescribed_sides::<D>(
+        FileKind::Case,
+        origin,
+        "displacement",
+        &parts,
+        &domain.sides,
+        &mut sides,
+    )?;
+    Ok((
+        Domain::Box {
+            lower: std::array::from_fn(|i| domain.lower[i]),
+            upper: std::array::from_fn(|i| domain.upper[i]),
+            sides,
+        },
+        prescribed,
+    ))
+}
+
 fn case_error(origin: &str, key: &str, message: impl Into<String>) -> VerifyError {
     FileKind::Case.error(origin, key, message)
 }
@@ -271,42 +443,8 @@ impl<const D: usize> Case<D> {
             ));
         }
         positive(FileKind::Case, origin, "final_time", file.final_time)?;
-        check_studies(origin, &file.studies)?;
-        if file.domain.lower.len() != D || file.domain.upper.len() != D {
-            return Err(case_error(
-                origin,
-                "domain.lower/upper",
-                format!("need {D} coordinates each"),
-            ));
-        }
-        for axis in 0..D {
-            let (low, high) = (file.domain.lower[axis], file.domain.upper[axis]);
-            if !(low.is_finite() && high.is_finite() && low < high) {
-                return Err(case_error(
-                    origin,
-                    "domain.lower/upper",
-                    format!(
-                        "need finite coordinates with lower < upper, got lower = {:?}, upper = {:?}",
-                        file.domain.lower, file.domain.upper
-                    ),
-                ));
-            }
-        }
-        let mut sides =
-            parse_sides::<D>(FileKind::Case, origin, "domain.sides", &file.domain.sides)?;
-        let parts: Vec<(String, Vec<String>)> = file
-            .displacement
-            .iter()
-            .map(|d| (d.part.clone(), d.components.clone()))
-            .collect();
-        let prescribed = prescribed_sides::<D>(
-            FileKind::Case,
-            origin,
-            "displacement",
-            &parts,
-            &file.domain.sides,
-            &mut sides,
-        )?;
+        check_studies(origin, &file.studies, file.domain.is_mesh())?;
+        let (domain, prescribed) = build_domain::<D>(&file, origin)?;
         let constants = &file.constants;
         if !file.scheme.damage {
             return Err(case_error(
@@ -383,7 +521,7 @@ impl<const D: usize> Case<D> {
         };
         let case = Self {
             origin: origin.to_string(),
-            sides,
+            domain,
             prescribed,
             laws,
             programs: Arc::new(ExactPrograms::new(&exact)),
@@ -396,12 +534,41 @@ impl<const D: usize> Case<D> {
     }
 
     /// The manufactured u and β are smooth on the domain (no pole between sample points, see
-    /// [`crate::smoothness`]) and u does not vanish identically (the displacement and velocity
-    /// errors would then measure round-off, and their rates would be 0/0).
+    /// [`crate::smoothness`]: on the edges of a lattice of a box, or of the mesh refined once)
+    /// and u does not vanish identically (the displacement and velocity errors would then
+    /// measure round-off, and their rates would be 0/0).
     fn check_smooth(&self) -> Result<(), VerifyError> {
-        let (lower, upper) = (self.lower(), self.upper());
-        let per_axis: usize = if D == 2 { 25 } else { 11 };
         let times = [0.0, 0.5 * self.file.final_time, self.file.final_time];
+        let (segments, points) = match &self.domain {
+            Domain::Box { lower, upper, .. } => {
+                let per_axis: usize = if D == 2 { 25 } else { 11 };
+                let segments = crate::smoothness::lattice_segments(*lower, *upper, per_axis);
+                let points: Vec<[f64; D]> = (0..7usize.pow(D as u32))
+                    .map(|index| {
+                        std::array::from_fn(|i| {
+                            let step = index / 7usize.pow(i as u32) % 7;
+                            lower[i] + (upper[i] - lower[i]) * (step as f64 + 0.5) / 7.0
+                        })
+                    })
+                    .collect();
+                (segments, points)
+            }
+            Domain::Mesh { mesh, .. } => {
+                let fine = contact_damage::mesh::refine_times(mesh, 1)?;
+                let mut segments = Vec::new();
+                for c in 0..fine.num_cells() {
+                    let cell = fine.cell(c);
+                    for (i, &a) in cell.iter().enumerate() {
+                        for &b in &cell[i + 1..] {
+                            if a < b {
+                                segments.push((fine.vertex(a), fine.vertex(b)));
+                            }
+                        }
+                    }
+                }
+                (segments, fine.vertices().to_vec())
+            }
+        };
         let fields = self
             .exact
             .displacement
@@ -413,20 +580,15 @@ impl<const D: usize> Case<D> {
                 &self.exact.damage,
             )));
         for (key, field) in fields {
-            crate::smoothness::check_resolved(field, lower, upper, per_axis, &times)
+            crate::smoothness::check_resolved(field, &segments, &times)
                 .map_err(|message| case_error(&self.origin, &key, message))?;
         }
-        let samples = 7usize.pow(D as u32);
-        let vanishes = (0..samples).all(|index| {
-            let x: [f64; D] = std::array::from_fn(|i| {
-                let step = index / 7usize.pow(i as u32) % 7;
-                lower[i] + (upper[i] - lower[i]) * (step as f64 + 0.5) / 7.0
-            });
+        let vanishes = points.iter().all(|x| {
             times.iter().all(|&t| {
                 self.exact
                     .displacement
                     .iter()
-                    .all(|u| value(u, &x, t) == 0.0)
+                    .all(|u| value(u, x, t) == 0.0)
             })
         });
         if vanishes {
@@ -439,144 +601,162 @@ impl<const D: usize> Case<D> {
         Ok(())
     }
 
-    fn lower(&self) -> [f64; D] {
-        std::array::from_fn(|i| self.file.domain.lower[i])
-    }
-
-    fn upper(&self) -> [f64; D] {
-        std::array::from_fn(|i| self.file.domain.upper[i])
-    }
-
-    /// Sample points on a regular lattice of the box (including its boundary) at several times.
+    /// Checks the fields at sample points (a lattice of the box including its boundary, or the
+    /// vertices of the mesh refined once and points of every boundary facet) at several times.
     fn check_samples(&self) -> Result<(), VerifyError> {
-        let origin = &self.origin;
-        let (lower, upper) = (self.lower(), self.upper());
-        let per_axis: usize = if D == 2 { 25 } else { 11 };
-        let times: Vec<f64> = (0..=4)
-            .map(|i| self.file.final_time * i as f64 / 4.0)
-            .collect();
-        let total = per_axis.pow(D as u32);
-        for index in 0..total {
-            let mut rest = index;
-            let lattice: [usize; D] = std::array::from_fn(|_| {
-                let i = rest % per_axis;
-                rest /= per_axis;
-                i
-            });
-            let x: [f64; D] = std::array::from_fn(|i| {
-                lower[i] + (upper[i] - lower[i]) * lattice[i] as f64 / (per_axis - 1) as f64
-            });
-            // which sides is x on?
-            let mut parts = Vec::new();
-            let mut normals = Vec::new();
-            for axis in 0..D {
-                for (side, coordinate) in [lower[axis], upper[axis]].into_iter().enumerate() {
-                    if (x[axis] - coordinate).abs() < 1e-14 {
-                        // a prescribed side takes u_D = u: nothing to check there
-                        let free = self
-                            .prescribed
-                            .iter()
-                            .any(|p| (p.axis, p.end) == (axis, side));
-                        parts.push(if free {
-                            BoundaryPart::Neumann
-                        } else {
-                            self.sides[axis][side]
-                        });
-                        let mut n = [0.0; D];
-                        n[axis] = if side == 0 { -1.0 } else { 1.0 };
-                        normals.push(n);
+        match &self.domain {
+            Domain::Box {
+                lower,
+                upper,
+                sides,
+            } => {
+                let per_axis: usize = if D == 2 { 25 } else { 11 };
+                let total = per_axis.pow(D as u32);
+                for index in 0..total {
+                    let mut rest = index;
+                    let lattice: [usize; D] = std::array::from_fn(|_| {
+                        let i = rest % per_axis;
+                        rest /= per_axis;
+                        i
+                    });
+                    let x: [f64; D] = std::array::from_fn(|i| {
+                        lower[i] + (upper[i] - lower[i]) * lattice[i] as f64 / (per_axis - 1) as f64
+                    });
+                    // which sides is x on?
+                    let mut parts = Vec::new();
+                    for axis in 0..D {
+                        for (side, coordinate) in [lower[axis], upper[axis]].into_iter().enumerate()
+                        {
+                            if (x[axis] - coordinate).abs() < 1e-14 {
+                                // a prescribed side takes u_D = u: nothing to check there
+                                let free = self
+                                    .prescribed
+                                    .iter()
+                                    .any(|p| (p.axis, p.end) == (axis, side));
+                                let mut n = [0.0; D];
+                                n[axis] = if side == 0 { -1.0 } else { 1.0 };
+                                let part = if free {
+                                    BoundaryPart::Neumann
+                                } else {
+                                    sides[axis][side]
+                                };
+                                parts.push((part, n));
+                            }
+                        }
                     }
+                    self.check_point(&x, &parts)?;
                 }
             }
-            for &t in &times {
-                let at = || format!("at x = {x:?}, t = {}", contact_input::number::short(t));
-                let beta = value(&self.exact.damage, &x, t);
-                if !(-1e-14..=1.0 + 1e-14).contains(&beta) || !beta.is_finite() {
-                    return Err(case_error(
-                        origin,
-                        "exact.beta",
-                        format!("β = {beta} is outside [0, 1] {}", at()),
-                    ));
+            Domain::Mesh { mesh, .. } => {
+                let samples = sample_points(mesh)?;
+                for x in &samples.interior {
+                    self.check_point(x, &[])?;
                 }
-                let eta = value(&self.exact.damage_multiplier, &x, t);
-                let eta_ok = if beta >= 1.0 - 1e-14 {
-                    eta >= 0.0
-                } else if beta <= 1e-14 {
-                    eta <= 0.0
-                } else {
-                    eta.abs() <= 1e-12
-                };
-                if !eta_ok || !eta.is_finite() {
-                    return Err(case_error(
-                        origin,
-                        "exact.damage_multiplier",
-                        format!("η = {eta} is not in ∂ψ_[0,1](β) for β = {beta} {}", at()),
-                    ));
-                }
-                for (part, normal) in parts.iter().zip(&normals) {
-                    match part {
-                        BoundaryPart::Dirichlet => {
-                            for (i, component) in self.exact.displacement.iter().enumerate() {
-                                let u = value(component, &x, t);
-                                if u.abs() > 1e-12 {
-                                    return Err(case_error(
-                                        origin,
-                                        &format!("exact.u[{i}]"),
-                                        format!("u = {u} ≠ 0 on Γ1 (clamped side) {}", at()),
-                                    ));
-                                }
-                            }
-                        }
-                        BoundaryPart::Contact => {
-                            let gap = value(&self.exact.gap, &x, t);
-                            if !gap.is_finite() {
-                                return Err(case_error(
-                                    origin,
-                                    "exact.gap",
-                                    format!("g = {gap} is not finite on Γ3 {}", at()),
-                                ));
-                            }
-                            let xi: Vec<f64> = self
-                                .exact
-                                .stick_traction
-                                .iter()
-                                .map(|e| value(e, &x, t))
-                                .collect();
-                            let normal_part: f64 = xi.iter().zip(normal).map(|(a, b)| a * b).sum();
-                            let tangential = (xi.iter().map(|v| v * v).sum::<f64>()
-                                - normal_part * normal_part)
-                                .max(0.0)
-                                .sqrt();
-                            if tangential >= 1.0 {
-                                return Err(case_error(
-                                    origin,
-                                    "exact.stick_traction",
-                                    format!("|ξ_τ| = {tangential} ≥ 1 on Γ3 {}", at()),
-                                ));
-                            }
-                        }
-                        BoundaryPart::Neumann => {}
-                    }
+                for (x, part, normal) in &samples.boundary {
+                    self.check_point(x, &[(*part, *normal)])?;
                 }
             }
         }
         Ok(())
     }
 
-    /// The box mesh with `cells` intervals per side.
-    pub fn mesh(&self, cells: usize) -> Result<Mesh<D>, VerifyError> {
-        Ok(Mesh::box_mesh(
-            self.lower(),
-            self.upper(),
-            [cells; D],
-            self.sides,
-        )?)
+    /// The checks of [`Case::check_samples`] at one point x, on the boundary parts (with their
+    /// outward normals) that x lies on.
+    fn check_point(
+        &self,
+        x: &[f64; D],
+        parts: &[(BoundaryPart, [f64; D])],
+    ) -> Result<(), VerifyError> {
+        let origin = &self.origin;
+        let x = *x;
+        let times: Vec<f64> = (0..=4)
+            .map(|i| self.file.final_time * i as f64 / 4.0)
+            .collect();
+        for &t in &times {
+            let at = || format!("at x = {x:?}, t = {}", contact_input::number::short(t));
+            let beta = value(&self.exact.damage, &x, t);
+            if !(-1e-14..=1.0 + 1e-14).contains(&beta) || !beta.is_finite() {
+                return Err(case_error(
+                    origin,
+                    "exact.beta",
+                    format!("β = {beta} is outside [0, 1] {}", at()),
+                ));
+            }
+            let eta = value(&self.exact.damage_multiplier, &x, t);
+            let eta_ok = if beta >= 1.0 - 1e-14 {
+                eta >= 0.0
+            } else if beta <= 1e-14 {
+                eta <= 0.0
+            } else {
+                eta.abs() <= 1e-12
+            };
+            if !eta_ok || !eta.is_finite() {
+                return Err(case_error(
+                    origin,
+                    "exact.damage_multiplier",
+                    format!("η = {eta} is not in ∂ψ_[0,1](β) for β = {beta} {}", at()),
+                ));
+            }
+            for (part, normal) in parts {
+                match part {
+                    BoundaryPart::Dirichlet => {
+                        for (i, component) in self.exact.displacement.iter().enumerate() {
+                            let u = value(component, &x, t);
+                            if u.abs() > 1e-12 {
+                                return Err(case_error(
+                                    origin,
+                                    &format!("exact.u[{i}]"),
+                                    format!("u = {u} ≠ 0 on Γ1 (clamped side) {}", at()),
+                                ));
+                            }
+                        }
+                    }
+                    BoundaryPart::Contact => {
+                        let gap = value(&self.exact.gap, &x, t);
+                        if !gap.is_finite() {
+                            return Err(case_error(
+                                origin,
+                                "exact.gap",
+                                format!("g = {gap} is not finite on Γ3 {}", at()),
+                            ));
+                        }
+                        let xi: Vec<f64> = self
+                            .exact
+                            .stick_traction
+                            .iter()
+                            .map(|e| value(e, &x, t))
+                            .collect();
+                        let normal_part: f64 = xi.iter().zip(normal).map(|(a, b)| a * b).sum();
+                        let tangential = (xi.iter().map(|v| v * v).sum::<f64>()
+                            - normal_part * normal_part)
+                            .max(0.0)
+                            .sqrt();
+                        if tangential >= 1.0 {
+                            return Err(case_error(
+                                origin,
+                                "exact.stick_traction",
+                                format!("|ξ_τ| = {tangential} ≥ 1 on Γ3 {}", at()),
+                            ));
+                        }
+                    }
+                    BoundaryPart::Neumann => {}
+                }
+            }
+        }
+        Ok(())
     }
 
-    /// The solver problem with the manufactured data (SPEC §4) for one run.
+    /// The mesh of a study level: the box with `level` intervals per side, or the Gmsh mesh
+    /// refined `level` times.
+    pub fn mesh(&self, level: usize) -> Result<Mesh<D>, VerifyError> {
+        Ok(self.domain.mesh(level)?)
+    }
+
+    /// The solver problem with the manufactured data (SPEC §4) for one run on the mesh of
+    /// level `level` ([`Case::mesh`]).
     pub fn problem(
         &self,
-        cells: usize,
+        level: usize,
         degree: usize,
         steps: usize,
     ) -> Result<Problem<D>, VerifyError> {
@@ -584,15 +764,15 @@ impl<const D: usize> Case<D> {
         let exact = Arc::new(self.exact.clone());
         let data = ManufacturedData::new(self.programs.clone(), laws.clone());
         let (eu, eb, eg) = (exact.clone(), exact.clone(), exact.clone());
-        let mesh = self.mesh(cells)?;
+        let mesh = self.mesh(level)?;
         let dirichlet = self
             .prescribed
             .iter()
             .map(|side| {
-                let coordinate = if side.end == 0 {
-                    self.lower()[side.axis]
-                } else {
-                    self.upper()[side.axis]
+                let coordinate = match &self.domain {
+                    Domain::Box { lower, upper, .. } => [lower, upper][side.end][side.axis],
+                    // refused by `Case::new`: prescribed sides need a box
+                    Domain::Mesh { .. } => f64::NAN,
                 };
                 let components = std::array::from_fn(|i| {
                     side.components[i].then(|| {

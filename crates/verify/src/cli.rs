@@ -12,8 +12,9 @@ use clap::Parser;
 pub use contact_input::threads::{max_threads, set_threads};
 use std::path::{Path, PathBuf};
 
-/// Built-in cases: (name, TOML text). The files live in `verification/`.
-pub const BUILT_IN_CASES: [(&str, &str); 13] = [
+/// Built-in cases: (name, TOML text). The files live in `verification/`; the meshes of the
+/// cases on Gmsh meshes are built in too ([`crate::domain::BUILT_IN_MESHES`]).
+pub const BUILT_IN_CASES: [(&str, &str); 15] = [
     ("slip2d", include_str!("../../../verification/slip2d.toml")),
     (
         "zones2d",
@@ -48,6 +49,14 @@ pub const BUILT_IN_CASES: [(&str, &str); 13] = [
         include_str!("../../../verification/strong3d.toml"),
     ),
     ("wear3d", include_str!("../../../verification/wear3d.toml")),
+    (
+        "tilted2d",
+        include_str!("../../../verification/tilted2d.toml"),
+    ),
+    (
+        "tilted3d",
+        include_str!("../../../verification/tilted3d.toml"),
+    ),
 ];
 
 /// Manufactured-solution convergence verification of the contact-damage scheme (Theorem 5.2).
@@ -83,7 +92,7 @@ pub struct StudyArgs {
     /// Space dimension of the default case (2 or 3); ignored with --case.
     #[arg(long, default_value_t = 2)]
     pub dim: usize,
-    /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d, mild2d, strong2d, wear2d, carreau2d, implicit2d, loads2d, mild3d, strong3d, wear3d).
+    /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d, mild2d, strong2d, wear2d, carreau2d, implicit2d, loads2d, mild3d, strong3d, wear3d, tilted2d, tilted3d).
     #[arg(long)]
     pub case: Option<String>,
     /// Use only the first (coarsest) N levels of every study (N ≥ 2: a rate needs two levels).

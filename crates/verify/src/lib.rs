@@ -5,6 +5,7 @@
 //! - [`expr`], [`output`], [`VerifyError`]: the expression language, the atomic writers and the
 //!   error type of the shared input layer (crate `contact-input`, re-exported here);
 //! - [`plot`]: log–log convergence plots written as SVG;
+//! - [`domain`]: the domain of a case, a box or a Gmsh mesh refined uniformly;
 //! - [`case`]: manufactured cases as TOML data, validated (the `[laws]` and `[scheme]` tables
 //!   and the box sides are read by `contact-input`, as in `simulate`'s problem files);
 //! - [`manufactured`]: source terms f0, f2, f3, q derived by automatic differentiation;
@@ -17,6 +18,7 @@
 pub mod budget;
 pub mod case;
 pub mod cli;
+pub mod domain;
 pub mod errors;
 pub mod manufactured;
 pub mod plot;

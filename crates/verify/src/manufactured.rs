@@ -257,19 +257,40 @@ pub fn traction_at<const D: usize>(
     std::array::from_fn(|i| sigma_n[i])
 }
 
+/// Relative size of the round-off in u̇_τ = u̇ − (u̇·ν)ν: a tangential speed at most
+/// `SLIP_ROUNDOFF · |u̇|` is the round-off of a stuck point (whose u̇ is normal), not slip.
+///
+/// On a contact boundary that is not axis-aligned the projection of a normal velocity leaves a
+/// tangential remainder of a few ulps in a direction that is noise; taking it for slip would put
+/// a friction traction of full size p_τ in that direction into f3. The exact fields then solve
+/// the problem with these data up to a tangential velocity of this round-off size.
+pub const SLIP_ROUNDOFF: f64 = 16.0 * f64::EPSILON;
+
+/// v_τ = v − (v·ν)ν, projected twice: one projection of a nearly normal v leaves a normal
+/// remainder of the size of the round-off of v·ν, which the second removes (so that
+/// |v_τ·ν| ≤ a few ulps of |v_τ|, also on boundaries that are not axis-aligned).
+pub fn tangential_part<const D: usize>(
+    v: &SVector<f64, D>,
+    normal: &SVector<f64, D>,
+) -> SVector<f64, D> {
+    let once = v - normal * v.dot(normal);
+    once - normal * once.dot(normal)
+}
+
 /// The friction direction ξ̂ of SPEC §4: u̇_τ/|u̇_τ| where the body slips, else the tangential
-/// part of the stick field ξ.
+/// part of the stick field ξ (stick: |u̇_τ| ≤ [`SLIP_ROUNDOFF`] · |u̇|, i.e. u̇_τ = 0 up to
+/// round-off).
 pub fn friction_direction<const D: usize>(
     state: &PointState<D>,
     stick_traction: &SVector<f64, D>,
     normal: &SVector<f64, D>,
 ) -> SVector<f64, D> {
-    let slip = state.velocity - normal * state.velocity.dot(normal);
+    let slip = tangential_part(&state.velocity, normal);
     let speed = slip.norm();
-    if speed > 0.0 {
+    if speed > SLIP_ROUNDOFF * state.velocity.norm() {
         slip / speed
     } else {
-        stick_traction - normal * stick_traction.dot(normal)
+        tangential_part(stick_traction, normal)
     }
 }
 

@@ -32,11 +32,16 @@ pub struct ErrorRow {
     pub dim: usize,
     /// Degree l.
     pub degree: usize,
-    /// Cells per side.
+    /// The level: cells per side (box) or refinements of the Gmsh mesh.
     pub cells: usize,
     /// h.
     #[serde(serialize_with = "finite_or_dash")]
     pub h: f64,
+    /// Cells of the mesh.
+    pub mesh_cells: usize,
+    /// Shape-regularity measure of the mesh (max h_K/ρ_K, normalized).
+    #[serde(serialize_with = "finite_or_dash")]
+    pub shape_regularity: f64,
     /// N.
     pub steps: usize,
     /// k.
@@ -172,6 +177,8 @@ pub fn write_reports(
                 degree: study.degree,
                 cells: run.cells,
                 h: run.h,
+                mesh_cells: run.mesh_cells,
+                shape_regularity: run.shape_regularity,
                 steps: run.steps,
                 k: run.k,
                 displacement: run.errors.displacement,
@@ -321,6 +328,8 @@ mod tests {
             .map(|&k| RunResult {
                 cells: 4,
                 h: 0.35,
+                mesh_cells: 32,
+                shape_regularity: 1.2,
                 steps: (1.0 / k) as usize,
                 k,
                 errors: ErrorComponents {

@@ -6,6 +6,7 @@ use crate::case::{Case, LevelStudy, TimeStudy};
 use crate::errors::{ErrorComponents, ErrorTracker, Reference};
 use crate::output::{finite, finite_or_null, finite_or_null_each};
 use crate::VerifyError;
+use contact_damage::quality::shape_regularity;
 use contact_damage::scheme::{RunSummary, Simulation, State};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -127,11 +128,17 @@ impl RunStats {
 /// One run of a study (also the payload of a result file of the runs cache, [`crate::sweep`]).
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct RunResult {
-    /// Cells per side.
+    /// The level: cells per side (box domain) or uniform refinements of the Gmsh mesh.
     pub cells: usize,
     /// Mesh size h (largest cell diameter).
     #[serde(deserialize_with = "nan_if_null")]
     pub h: f64,
+    /// Number of cells of the mesh.
+    pub mesh_cells: usize,
+    /// Shape-regularity measure of the mesh, max_K (h_K/ρ_K) normalized by the regular
+    /// simplex ([`contact_damage::quality::shape_regularity`]; Theorem 5.2 needs it bounded).
+    #[serde(serialize_with = "finite_or_null")]
+    pub shape_regularity: f64,
     /// Time steps N.
     pub steps: usize,
     /// k = T/N.
@@ -414,6 +421,8 @@ pub fn run_one<const D: usize>(
     let started = Instant::now();
     let problem = case.problem(cells, degree, steps)?;
     let h = problem.mesh.max_cell_diameter();
+    let mesh_cells = problem.mesh.num_cells();
+    let shape_regularity = shape_regularity(&problem.mesh);
     let mut simulation = Simulation::new(problem)?;
     let reference = match reference {
         Some(states) => Reference::Discrete(states),
@@ -432,6 +441,8 @@ pub fn run_one<const D: usize>(
     Ok(RunResult {
         cells,
         h,
+        mesh_cells,
+        shape_regularity,
         steps,
         k,
         errors: tracker.finish(),
@@ -504,18 +515,18 @@ pub fn level_study<const D: usize>(
     kind: StudyKind,
     study: &LevelStudy,
 ) -> Result<StudyResult, VerifyError> {
-    if study.cells.len() != study.steps.len() || study.cells.len() < 2 {
+    if study.levels().len() != study.steps.len() || study.levels().len() < 2 {
         return Err(VerifyError::InvalidInput(format!(
-            "{} study of order {degree}: `cells` and `steps` need the same length ≥ 2",
+            "{} study of order {degree}: the levels (`cells` or `refinements`) and `steps` need the same length ≥ 2",
             kind.name()
         )));
     }
     let bar = progress(
-        study.cells.len(),
+        study.levels().len(),
         &format!("{}-study l={degree}", kind.name()),
     );
     let runs: Vec<RunResult> = study
-        .cells
+        .levels()
         .par_iter()
         .zip(&study.steps)
         .map(|(&cells, &steps)| {
@@ -575,7 +586,7 @@ pub fn time_study<const D: usize>(
     let reference = Arc::new(reference_states(
         case,
         degree,
-        study.cells,
+        study.level(),
         study.reference_steps,
     )?);
     bar.inc(1);
@@ -593,7 +604,7 @@ pub fn time_study<const D: usize>(
         .par_iter()
         .zip(coarse)
         .map(|(&steps, states)| {
-            let result = run_one(case, degree, study.cells, steps, Some(states));
+            let result = run_one(case, degree, study.level(), steps, Some(states));
             let _guard = done.lock();
             bar.inc(1);
             result
@@ -636,6 +647,8 @@ mod tests {
         RunResult {
             cells: 1,
             h,
+            mesh_cells: 1,
+            shape_regularity: 1.0,
             steps: 1,
             k: h,
             errors: ErrorComponents {

@@ -153,20 +153,17 @@ pub fn level_file(
         for cells in mesh.cells.iter_mut() {
             *cells = scaled(*cells, factor, &format!("{origin}: mesh.box.cells"))?;
         }
-    } else if let Some(gmsh) = &level.mesh.gmsh {
-        refine_gmsh(origin, &gmsh.file, index)?;
+    } else if let Some(gmsh) = &mut level.mesh.gmsh {
+        // uniform refinement halves h: level i is the mesh refined i more times
+        if index > 0 && (ratio - 2.0).abs() > 1e-12 {
+            return Err(invalid(format!(
+                "{origin}: mesh.gmsh `{}`: a Gmsh mesh is refined uniformly, which halves h; use --ratio 2",
+                gmsh.file
+            )));
+        }
+        gmsh.refinements += index;
     }
     Ok(level)
-}
-
-/// Uniform refinement of a Gmsh mesh, `times` times (level 0: the mesh as it is).
-fn refine_gmsh(origin: &str, file: &str, times: usize) -> Result<(), InputError> {
-    if times == 0 {
-        return Ok(());
-    }
-    Err(invalid(format!(
-        "{origin}: mesh.gmsh `{file}`: refinement of Gmsh meshes is not available yet; use a box mesh for --convergence"
-    )))
 }
 
 /// The rows of a `history.csv`: the header and the values (an empty field is NaN).

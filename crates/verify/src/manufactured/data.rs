@@ -254,11 +254,12 @@ mod tests {
     fn batched_data_match_the_tree<const D: usize>() {
         let mut checked = 0;
         for (name, text) in BUILT_IN_CASES {
-            let file = parse_case_file(text, name).unwrap();
+            let origin = format!("built-in:{name}");
+            let file = parse_case_file(text, &origin).unwrap();
             if file.dim != D {
                 continue;
             }
-            let case = Case::<D>::new(file, name).unwrap();
+            let case = Case::<D>::new(file, &origin).unwrap();
             let data = ManufacturedData::new(case.programs.clone(), case.laws.clone());
             // 300 points (more than two batches), spread over the box by a fixed sequence.
             let points: Vec<[f64; D]> = (0..300)

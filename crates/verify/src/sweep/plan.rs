@@ -237,9 +237,9 @@ fn check_level_study(
     degree: usize,
     study: &LevelStudy,
 ) -> Result<(), VerifyError> {
-    if study.cells.len() != study.steps.len() || study.cells.len() < 2 {
+    if study.levels().len() != study.steps.len() || study.levels().len() < 2 {
         return Err(VerifyError::InvalidInput(format!(
-            "{} study of order {degree}: `cells` and `steps` need the same length ≥ 2",
+            "{} study of order {degree}: `cells` (or `refinements`) and `steps` need the same length ≥ 2",
             kind.name()
         )));
     }
@@ -277,8 +277,14 @@ pub fn plan(
             "case `{origin}` defines no studies for l = {degree} (no [studies.{key}])"
         ))
     })?;
+    let mut content = case_content(text, origin)?;
+    if let Some(mesh) = &file.domain.mesh {
+        // the results depend on the mesh file as much as on the case file
+        let (bytes, _) = crate::domain::mesh_file(mesh, origin)?;
+        content.push_str(&format!("\nmesh {}", sha256_hex(&bytes)));
+    }
     let mut planner = Planner {
-        content: case_content(text, origin)?,
+        content,
         dim: file.dim,
         degree,
         runs: Vec::new(),
@@ -294,7 +300,7 @@ pub fn plan(
                 };
                 let Some(study) = study else { continue };
                 check_level_study(kind, degree, study)?;
-                let cells = truncate(&study.cells, levels);
+                let cells = truncate(study.levels(), levels);
                 let steps = truncate(&study.steps, levels);
                 let runs = cells
                     .iter()
@@ -322,7 +328,7 @@ pub fn plan(
                     .fold(0, greatest_common_divisor);
                 let reference = planner.add(
                     RunKind::Reference,
-                    study.cells,
+                    study.level(),
                     study.reference_steps,
                     Some(stride),
                     None,
@@ -335,7 +341,7 @@ pub fn plan(
                         let user = format!("k:{level}");
                         let kind = RunKind::AgainstReference;
                         planner
-                            .add(kind, study.cells, n, None, Some(&reference), user)
+                            .add(kind, study.level(), n, None, Some(&reference), user)
                             .id
                     })
                     .collect();
