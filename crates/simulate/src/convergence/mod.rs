@@ -47,8 +47,10 @@ pub struct ConvergenceOptions {
 pub struct Level {
     /// i (0 = coarsest).
     pub index: usize,
-    /// Intervals per axis of a box mesh.
+    /// Intervals per axis of a box mesh (empty for a Gmsh mesh).
     pub cells: Vec<usize>,
+    /// Uniform refinements of a Gmsh mesh (`None` for a box).
+    pub refinements: Option<usize>,
     /// N.
     pub steps: usize,
     /// Largest cell diameter.
@@ -164,6 +166,14 @@ pub fn level_file(
         gmsh.refinements += index;
     }
     Ok(level)
+}
+
+/// The mesh of a level in words: `cells [40, 20]` or `Gmsh mesh refined 2 times`.
+pub fn mesh_label(cells: &[usize], refinements: Option<usize>) -> String {
+    match refinements {
+        Some(r) => format!("Gmsh mesh refined {r} times"),
+        None => format!("cells {cells:?}"),
+    }
 }
 
 /// The rows of a `history.csv`: the header and the values (an empty field is NaN).
@@ -289,10 +299,12 @@ pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Stud
             .as_ref()
             .map(|b| b.cells.clone())
             .unwrap_or_default();
+        let refinements = level.mesh.gmsh.as_ref().map(|g| g.refinements);
         let steps = level.steps;
         if !options.quiet {
             println!(
-                "level {index}: cells {cells:?}, steps {steps} → {}",
+                "level {index}: {}, steps {steps} → {}",
+                mesh_label(&cells, refinements),
                 dir.display()
             );
         }
@@ -329,6 +341,7 @@ pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Stud
         levels.push(Level {
             index,
             cells,
+            refinements,
             steps,
             h,
             k: final_time / steps as f64,

@@ -90,9 +90,9 @@ pub fn table(study: &Study) -> String {
     )];
     for level in &study.levels {
         lines.push(format!(
-            "  level {}: cells {:?}, steps {}, h = {:.4e}, k = {:.4e}, max KKT {:.1e} / {:.1e}",
+            "  level {}: {}, steps {}, h = {:.4e}, k = {:.4e}, max KKT {:.1e} / {:.1e}",
             level.index,
-            level.cells,
+            super::mesh_label(&level.cells, level.refinements),
             level.steps,
             level.h,
             level.k,
@@ -193,12 +193,12 @@ GCI_32 / (r^p GCI_21), near 1 in the asymptotic range. A quantity that does not 
         study.levels.len(),
         study.ratio
     );
-    md += "| level | cells | steps | h | k | max KKT velocity | max KKT damage |\n|---|---|---|---|---|---|---|\n";
+    md += "| level | mesh | steps | h | k | max KKT velocity | max KKT damage |\n|---|---|---|---|---|---|---|\n";
     for level in &study.levels {
         md += &format!(
-            "| {} | {:?} | {} | {:.4e} | {:.4e} | {:.1e} | {:.1e} |\n",
+            "| {} | {} | {} | {:.4e} | {:.4e} | {:.1e} | {:.1e} |\n",
             level.index,
-            level.cells,
+            super::mesh_label(&level.cells, level.refinements),
             level.steps,
             level.h,
             level.k,
