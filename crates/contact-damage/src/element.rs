@@ -157,23 +157,18 @@ fn barycentric<const D: usize>(xi: &[f64; D]) -> [f64; 4] {
 mod tests {
     use super::*;
 
-    /// Deterministic pseudo-random numbers in [0, 1) (proptest's ChaCha generator, seeded).
-    struct Points(proptest::test_runner::TestRng);
-    impl Points {
-        fn new(seed: u8) -> Self {
-            Self(proptest::test_runner::TestRng::from_seed(
-                proptest::test_runner::RngAlgorithm::ChaCha,
-                &[seed; 32],
-            ))
-        }
-        fn next(&mut self) -> f64 {
-            use proptest::prelude::RngExt;
-            self.0.random::<f64>()
-        }
+    use crate::test_random::SeededRandom as Points;
+
+    /// Random points of the reference simplex.
+    trait SimplexPoints {
+        fn point_in_simplex<const D: usize>(&mut self) -> [f64; D];
+    }
+
+    impl SimplexPoints for Points {
         /// A point of the reference simplex (possibly on its boundary region).
         fn point_in_simplex<const D: usize>(&mut self) -> [f64; D] {
             loop {
-                let p: [f64; D] = std::array::from_fn(|_| self.next());
+                let p: [f64; D] = std::array::from_fn(|_| self.unit());
                 if p.iter().sum::<f64>() <= 1.0 {
                     return p;
                 }
@@ -268,13 +263,13 @@ mod tests {
         let mut rng = Points::new(13);
         for element in elements::<D>() {
             // p(ξ) = c + b·ξ + (if P2) ξᵀ A ξ with A symmetric.
-            let constant = rng.next() - 0.5;
-            let linear: [f64; D] = std::array::from_fn(|_| rng.next() - 0.5);
+            let constant = rng.unit() - 0.5;
+            let linear: [f64; D] = std::array::from_fn(|_| rng.unit() - 0.5);
             let mut quadratic = [[0.0; D]; D];
             if element.degree() == 2 {
                 for r in 0..D {
                     for c in r..D {
-                        quadratic[r][c] = rng.next() - 0.5;
+                        quadratic[r][c] = rng.unit() - 0.5;
                         quadratic[c][r] = quadratic[r][c];
                     }
                 }

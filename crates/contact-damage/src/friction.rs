@@ -959,26 +959,14 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
-    /// Deterministic random data driven by proptest-chosen seeds: proptest's ChaCha generator.
-    struct Generator(proptest::test_runner::TestRng);
+    use crate::test_random::SeededRandom as Generator;
 
-    impl Generator {
-        fn new(seed: u64) -> Self {
-            let mut bytes = [0u8; 32];
-            bytes[..8].copy_from_slice(&seed.to_le_bytes());
-            Self(proptest::test_runner::TestRng::from_seed(
-                proptest::test_runner::RngAlgorithm::ChaCha,
-                &bytes,
-            ))
-        }
-        /// Uniform in [0, 1).
-        fn uniform(&mut self) -> f64 {
-            self.0.random::<f64>()
-        }
-        /// Uniform in [low, high).
-        fn range(&mut self, low: f64, high: f64) -> f64 {
-            low + (high - low) * self.uniform()
-        }
+    /// Test data from [`Generator`].
+    trait Vectors {
+        fn vector(&mut self, len: usize, amplitude: f64) -> Vec<f64>;
+    }
+
+    impl Vectors for Generator {
         fn vector(&mut self, len: usize, amplitude: f64) -> Vec<f64> {
             (0..len)
                 .map(|_| self.range(-amplitude, amplitude))
@@ -1155,7 +1143,7 @@ mod tests {
 
     fn random_kinds(groups: usize, generator: &mut Generator) -> Vec<Kind> {
         let mut kinds: Vec<Kind> = (0..groups)
-            .map(|_| match generator.uniform() {
+            .map(|_| match generator.unit() {
                 u if u < 0.4 => Kind::Stick,
                 u if u < 0.9 => Kind::Slip,
                 _ => Kind::Free,
@@ -1179,7 +1167,7 @@ mod tests {
         let rhs = generator.vector(m, amplitude);
         let weights: Vec<f64> = (0..groups)
             .map(|_| {
-                if generator.uniform() < 0.2 {
+                if generator.unit() < 0.2 {
                     0.0
                 } else {
                     amplitude * 10f64.powf(generator.range(-2.0, 1.0))

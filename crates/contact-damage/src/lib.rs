@@ -78,6 +78,8 @@ pub mod refine;
 pub mod scheme;
 pub mod space;
 pub mod stability;
+#[cfg(test)]
+mod test_random;
 pub mod velocity;
 pub mod vtk;
 

@@ -1142,28 +1142,7 @@ mod tests {
 
     type DenseMatrix = Vec<Vec<f64>>;
 
-    /// Deterministic test data: proptest's ChaCha generator, seeded.
-    struct TestRng(proptest::test_runner::TestRng);
-
-    impl TestRng {
-        fn new(seed: u64) -> Self {
-            let mut bytes = [0u8; 32];
-            bytes[..8].copy_from_slice(&seed.to_le_bytes());
-            Self(proptest::test_runner::TestRng::from_seed(
-                proptest::test_runner::RngAlgorithm::ChaCha,
-                &bytes,
-            ))
-        }
-        fn unit(&mut self) -> f64 {
-            self.0.random::<f64>()
-        }
-        fn uniform(&mut self, low: f64, high: f64) -> f64 {
-            low + (high - low) * self.unit()
-        }
-        fn index(&mut self, bound: usize) -> usize {
-            ((self.unit() * bound as f64) as usize).min(bound - 1)
-        }
-    }
+    use crate::test_random::SeededRandom as TestRng;
 
     fn sparse_from_dense(dense: &[Vec<f64>]) -> SparseColMat<usize, f64> {
         let n = dense.len();
@@ -1245,7 +1224,7 @@ mod tests {
         let mut b_matrix = vec![vec![0.0; n]; n];
         for row in b_matrix.iter_mut() {
             for _ in 0..3 {
-                row[rng.index(n)] = rng.uniform(-1.0, 1.0);
+                row[rng.index(n)] = rng.range(-1.0, 1.0);
             }
         }
         let mut a = vec![vec![0.0; n]; n];
@@ -1359,7 +1338,7 @@ mod tests {
         ) {
             let mut rng = TestRng::new(seed);
             let dense = random_spd(n, &mut rng, shift);
-            let b: Vec<f64> = (0..n).map(|_| rng.uniform(-5.0, 5.0)).collect();
+            let b: Vec<f64> = (0..n).map(|_| rng.range(-5.0, 5.0)).collect();
             let (lower, upper): (Vec<f64>, Vec<f64>) = match bound_kind {
                 // nothing active: no bounds at all
                 0 => (vec![f64::NEG_INFINITY; n], vec![f64::INFINITY; n]),
@@ -1368,19 +1347,19 @@ mod tests {
                 // random bounds: one-sided, two-sided, equal, infinite
                 2 => (0..n)
                     .map(|_| {
-                        let a = rng.uniform(-1.0, 1.0);
+                        let a = rng.range(-1.0, 1.0);
                         match rng.index(5) {
                             0 => (a, f64::INFINITY),
                             1 => (f64::NEG_INFINITY, a),
                             2 => (a, a),
-                            _ => (a, a + rng.uniform(0.0, 1.0)),
+                            _ => (a, a + rng.range(0.0, 1.0)),
                         }
                     })
                     .unzip(),
                 // wide finite box that no solution reaches
                 _ => (vec![-1e6; n], vec![1e6; n]),
             };
-            let mut x: Vec<f64> = (0..n).map(|_| rng.uniform(-2.0, 2.0)).collect();
+            let mut x: Vec<f64> = (0..n).map(|_| rng.range(-2.0, 2.0)).collect();
             let matrix = sparse_from_dense(&dense);
             let mut solver = BoxQpSolver::new(matrix.clone(), BoxQpSettings::default()).unwrap();
             let stats = solver.solve(&b, &lower, &upper, &mut x).unwrap();
@@ -1480,7 +1459,7 @@ mod tests {
         let dense = damage_matrix(&mass, &stiffness, 0.01, 1e-3);
         let n = m * m;
         let mut rng = TestRng::new(3);
-        let b: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
+        let b: Vec<f64> = (0..n).map(|_| rng.range(-1.0, 1.0)).collect();
         let expected = dense_solve(&dense, &b);
         for (lower, upper) in [
             (vec![f64::NEG_INFINITY; n], vec![f64::INFINITY; n]),
