@@ -103,6 +103,29 @@ impl<const D: usize> QuadratureRule<D> {
         }
     }
 
+    /// The 3 points of the triangle orbit (a, a, 1 − 2a) in barycentric coordinates. Only
+    /// called with D = 2.
+    fn triangle_orbit(a: f64) -> [[f64; D]; 3] {
+        let c = 1.0 - 2.0 * a;
+        [
+            point_from_slice::<D>(&[a, a]),
+            point_from_slice::<D>(&[c, a]),
+            point_from_slice::<D>(&[a, c]),
+        ]
+    }
+
+    /// The 4 points of the tetrahedron orbit (a, a, a, 1 − 3a) in barycentric coordinates. Only
+    /// called with D = 3.
+    fn tetrahedron_orbit(a: f64) -> [[f64; D]; 4] {
+        let c = 1.0 - 3.0 * a;
+        [
+            point_from_slice::<D>(&[a, a, a]),
+            point_from_slice::<D>(&[c, a, a]),
+            point_from_slice::<D>(&[a, c, a]),
+            point_from_slice::<D>(&[a, a, c]),
+        ]
+    }
+
     /// Symmetric 3-point triangle rule at (1/6, 1/6), (2/3, 1/6), (1/6, 2/3), weights 1/6
     /// (exact to degree 2). Only called with D = 2.
     fn triangle_three_point() -> Self {
@@ -123,16 +146,8 @@ impl<const D: usize> QuadratureRule<D> {
         let sqrt10 = 10f64.sqrt();
         let root = (38.0 - 44.0 * (0.4f64).sqrt()).sqrt();
         let weight_root = (213125.0 - 53320.0 * sqrt10).sqrt();
-        let orbit_of = |a: f64| {
-            let c = 1.0 - 2.0 * a;
-            [
-                point_from_slice::<D>(&[a, a]),
-                point_from_slice::<D>(&[c, a]),
-                point_from_slice::<D>(&[a, c]),
-            ]
-        };
-        let inner = orbit_of((8.0 - sqrt10 + root) / 18.0);
-        let outer = orbit_of((8.0 - sqrt10 - root) / 18.0);
+        let inner = Self::triangle_orbit((8.0 - sqrt10 + root) / 18.0);
+        let outer = Self::triangle_orbit((8.0 - sqrt10 - root) / 18.0);
         let inner_weight = 0.5 * (620.0 + weight_root) / 3720.0;
         let outer_weight = 0.5 * (620.0 - weight_root) / 3720.0;
         Self::from_orbits(&[(&inner, inner_weight), (&outer, outer_weight)], 4)
@@ -158,17 +173,9 @@ impl<const D: usize> QuadratureRule<D> {
     /// 1/2). Only called with D = 2.
     fn triangle_seven_point() -> Self {
         let sqrt15 = 15f64.sqrt();
-        let orbit_of = |a: f64| {
-            let c = 1.0 - 2.0 * a;
-            [
-                point_from_slice::<D>(&[a, a]),
-                point_from_slice::<D>(&[c, a]),
-                point_from_slice::<D>(&[a, c]),
-            ]
-        };
         let centroid = [point_from_slice::<D>(&[1.0 / 3.0, 1.0 / 3.0])];
-        let first = orbit_of((6.0 - sqrt15) / 21.0);
-        let second = orbit_of((6.0 + sqrt15) / 21.0);
+        let first = Self::triangle_orbit((6.0 - sqrt15) / 21.0);
+        let second = Self::triangle_orbit((6.0 + sqrt15) / 21.0);
         Self::from_orbits(
             &[
                 (&centroid, 9.0 / 80.0),
@@ -185,14 +192,6 @@ impl<const D: usize> QuadratureRule<D> {
     /// area 1/2). Only called with D = 2.
     #[allow(clippy::excessive_precision)]
     fn triangle_twelve_point() -> Self {
-        let vertex_orbit = |a: f64| {
-            let c = 1.0 - 2.0 * a;
-            [
-                point_from_slice::<D>(&[a, a]),
-                point_from_slice::<D>(&[c, a]),
-                point_from_slice::<D>(&[a, c]),
-            ]
-        };
         let (a, b) = (0.053_145_049_844_816_947_35, 0.310_352_451_033_784_405_42);
         let c = 1.0 - a - b;
         let general = [
@@ -203,8 +202,8 @@ impl<const D: usize> QuadratureRule<D> {
             point_from_slice::<D>(&[b, c]),
             point_from_slice::<D>(&[c, b]),
         ];
-        let inner = vertex_orbit(0.249_286_745_170_910_421_29);
-        let outer = vertex_orbit(0.063_089_014_491_502_228_34);
+        let inner = Self::triangle_orbit(0.249_286_745_170_910_421_29);
+        let outer = Self::triangle_orbit(0.063_089_014_491_502_228_34);
         Self::from_orbits(
             &[
                 (&inner, 0.058_393_137_863_189_683_01),
@@ -221,15 +220,6 @@ impl<const D: usize> QuadratureRule<D> {
     /// called with D = 3.
     #[allow(clippy::excessive_precision)]
     fn tetrahedron_twenty_four_point() -> Self {
-        let vertex_orbit = |a: f64| {
-            let c = 1.0 - 3.0 * a;
-            [
-                point_from_slice::<D>(&[a, a, a]),
-                point_from_slice::<D>(&[c, a, a]),
-                point_from_slice::<D>(&[a, c, a]),
-                point_from_slice::<D>(&[a, a, c]),
-            ]
-        };
         let (a, b) = (0.063_661_001_875_017_525_30, 0.269_672_331_458_315_808_03);
         let c = 1.0 - 2.0 * a - b;
         // the barycentric coordinates (λ0, λ1, λ2, λ3) run over the permutations of (a, a, b, c);
@@ -251,9 +241,9 @@ impl<const D: usize> QuadratureRule<D> {
         .iter()
         .map(|lambda| point_from_slice::<D>(&lambda[1..]))
         .collect();
-        let first = vertex_orbit(0.214_602_871_259_152_029_29);
-        let second = vertex_orbit(0.040_673_958_534_611_353_12);
-        let third = vertex_orbit(0.322_337_890_142_275_510_34);
+        let first = Self::tetrahedron_orbit(0.214_602_871_259_152_029_29);
+        let second = Self::tetrahedron_orbit(0.040_673_958_534_611_353_12);
+        let third = Self::tetrahedron_orbit(0.322_337_890_142_275_510_34);
         Self::from_orbits(
             &[
                 (&first, 0.006_653_791_709_694_582_02),
@@ -272,15 +262,6 @@ impl<const D: usize> QuadratureRule<D> {
     /// D = 3. The literals keep the digits computed (the compiler rounds them correctly).
     #[allow(clippy::excessive_precision)]
     fn tetrahedron_fourteen_point() -> Self {
-        let vertex_orbit = |a: f64| {
-            let c = 1.0 - 3.0 * a;
-            [
-                point_from_slice::<D>(&[a, a, a]),
-                point_from_slice::<D>(&[c, a, a]),
-                point_from_slice::<D>(&[a, c, a]),
-                point_from_slice::<D>(&[a, a, c]),
-            ]
-        };
         let b = 0.045_503_704_125_649_649_49;
         let c = 0.5 - b;
         let edge_orbit = [
@@ -291,8 +272,8 @@ impl<const D: usize> QuadratureRule<D> {
             point_from_slice::<D>(&[c, b, c]),
             point_from_slice::<D>(&[b, c, c]),
         ];
-        let near_vertex = vertex_orbit(0.092_735_250_310_891_226_40);
-        let near_face = vertex_orbit(0.310_885_919_263_300_609_80);
+        let near_vertex = Self::tetrahedron_orbit(0.092_735_250_310_891_226_40);
+        let near_face = Self::tetrahedron_orbit(0.310_885_919_263_300_609_80);
         Self::from_orbits(
             &[
                 (&near_vertex, 0.012_248_840_519_393_658_26),

@@ -25,6 +25,11 @@
 //! the supernodal Cholesky factorizations of faer for the velocity matrix (its nested
 //! dissection order) and the damage matrix M/k + κK (AMD).
 
+// the machine description of the solver's bench examples
+#[path = "../../contact-damage/examples/common/report.rs"]
+#[allow(dead_code)] // the number format and writer of that file serve the other benches
+mod report;
+
 use contact_damage::atomic::write_atomic;
 use contact_damage::contact::ContactStatus;
 use contact_damage::damage::assemble_damage_matrix;
@@ -86,8 +91,8 @@ fn main() -> Result<(), Failure> {
                 .to_vec()
         };
     }
-    let started = utc_now();
-    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
+    let started = report::utc_now();
+    let load = report::load_average();
     let mut step_rows = Vec::new();
     let mut factor_rows = Vec::new();
     for case in &cases {
@@ -117,9 +122,9 @@ fn main() -> Result<(), Failure> {
         if quick { " --quick" } else { "" },
         cases.iter().map(|c| format!(" {c}")).collect::<String>()
     );
-    let report = render(&command, &started, load.trim(), &step_rows, &factor_rows);
-    print!("{report}");
-    write_atomic(&output, |w| w.write_all(report.as_bytes()))?;
+    let table = render(&command, &started, &load, &step_rows, &factor_rows);
+    print!("{table}");
+    write_atomic(&output, |w| w.write_all(table.as_bytes()))?;
     eprintln!("written {}", output.display());
     Ok(())
 }
@@ -385,15 +390,7 @@ fn render(
     steps: &[String],
     factors: &[String],
 ) -> String {
-    let cpu = std::fs::read_to_string("/proc/cpuinfo")
-        .ok()
-        .and_then(|t| {
-            t.lines()
-                .find(|l| l.starts_with("model name"))
-                .and_then(|l| l.split_once(':'))
-                .map(|(_, v)| v.trim().to_string())
-        })
-        .unwrap_or_else(|| "unknown CPU".into());
+    let cpu = report::cpu_model();
     let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
     let mut out = String::new();
     let _ = writeln!(out, "# Per-step budget of `simulate` (issue 10)\n");
@@ -442,27 +439,4 @@ fn render(
         let _ = writeln!(out, "{row}");
     }
     out
-}
-
-/// The current time as `YYYY-MM-DD HH:MM UTC`.
-fn utc_now() -> String {
-    let secs = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_secs());
-    let days = (secs / 86_400) as i64;
-    let rem = secs % 86_400;
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    format!(
-        "{year:04}-{month:02}-{day:02} {:02}:{:02} UTC",
-        rem / 3600,
-        (rem % 3600) / 60
-    )
 }
