@@ -46,9 +46,11 @@
 pub mod batch;
 pub mod compiled;
 pub mod derivative;
+pub mod split;
 
 pub use compiled::Program;
 pub use derivative::Tape;
+pub use split::SplitProgram;
 
 use std::collections::BTreeMap;
 use std::fmt;

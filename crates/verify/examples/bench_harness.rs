@@ -24,6 +24,7 @@ use std::time::{Duration, Instant};
 use verify::case::{parse_case_file, Case};
 use verify::cli::BUILT_IN_CASES;
 use verify::errors::{ErrorTracker, Reference};
+use verify::manufactured::data::ExactPrograms;
 use verify::output::{write_atomic, write_csv_atomic, write_json_atomic};
 
 /// A data field that adds the time spent in it to a shared counter.
@@ -123,7 +124,7 @@ fn run<const D: usize>(case: &Case<D>, name: &'static str, cells: usize, threads
         let space = simulation.space().clone();
         let mut tracker = ErrorTracker::new(
             &space,
-            Reference::Exact(case.programs.clone()),
+            Reference::Exact(Arc::new(ExactPrograms::clone(&case.programs))),
             simulation.time_step(),
             cells,
         );

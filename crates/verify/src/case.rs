@@ -762,7 +762,9 @@ impl<const D: usize> Case<D> {
     ) -> Result<Problem<D>, VerifyError> {
         let laws = self.laws.clone();
         let exact = Arc::new(self.exact.clone());
-        let data = ManufacturedData::new(self.programs.clone(), laws.clone());
+        // A copy of the programs with empty caches: each run caches its own points.
+        let programs = Arc::new(ExactPrograms::clone(&self.programs));
+        let data = ManufacturedData::new(programs, laws.clone());
         let (eu, eb, eg) = (exact.clone(), exact.clone(), exact.clone());
         let mesh = self.mesh(level)?;
         let dirichlet = self

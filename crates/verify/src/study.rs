@@ -4,6 +4,7 @@
 
 use crate::case::{Case, LevelStudy, TimeStudy};
 use crate::errors::{ErrorComponents, ErrorTracker, Reference};
+use crate::manufactured::data::ExactPrograms;
 use crate::output::{finite, finite_or_null, finite_or_null_each};
 use crate::VerifyError;
 use contact_damage::quality::shape_regularity;
@@ -426,7 +427,8 @@ pub fn run_one<const D: usize>(
     let mut simulation = Simulation::new(problem)?;
     let reference = match reference {
         Some(states) => Reference::Discrete(states),
-        None => Reference::Exact(case.programs.clone()),
+        // Empty caches: the error points of this run only.
+        None => Reference::Exact(Arc::new(ExactPrograms::clone(&case.programs))),
     };
     let k = simulation.time_step();
     let space = simulation.space().clone();

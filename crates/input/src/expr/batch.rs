@@ -34,10 +34,19 @@ impl Program {
         for (index, instruction) in self.instructions.iter().enumerate() {
             let (done, rest) = registers.split_at_mut(index * count);
             let out = &mut rest[..count];
-            let r = |register: u32| &done[register as usize * count..][..count];
+            // A variable's register is read from its input column directly (no copy).
+            let r = |register: u32| match self.instructions[register as usize] {
+                Instruction::Variable(slot) => inputs[slot],
+                _ => &done[register as usize * count..][..count],
+            };
             match *instruction {
                 Instruction::Constant(bits) => out.fill(f64::from_bits(bits)),
-                Instruction::Variable(slot) => out.copy_from_slice(inputs[slot]),
+                Instruction::Variable(slot) => {
+                    // Copied only where it is an output (read from the registers).
+                    if self.outputs.contains(&(index as u32)) {
+                        out.copy_from_slice(inputs[slot])
+                    }
+                }
                 Instruction::Negate(a) => {
                     for (o, &x) in out.iter_mut().zip(r(a)) {
                         *o = -x;

@@ -159,6 +159,15 @@ pub(super) struct Builder {
 }
 
 impl Builder {
+    /// A builder holding `instructions` (in dependency order) as they are, for
+    /// [`Builder::finish`]; nothing is hash-consed.
+    pub(super) fn from_instructions(instructions: Vec<Instruction>) -> Builder {
+        Builder {
+            instructions,
+            known: HashMap::new(),
+        }
+    }
+
     /// The register of `instruction`: an existing identical one, or a new one.
     pub(super) fn emit(&mut self, instruction: Instruction) -> Register {
         *self.known.entry(instruction).or_insert_with(|| {

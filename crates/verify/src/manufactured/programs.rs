@@ -9,16 +9,20 @@
 //! only first derivatives, the damage flux only ∇β.
 
 use super::ExactSolution;
-use crate::expr::compiled::with_registers;
 use crate::expr::derivative::Value;
-use crate::expr::{Program, Tape};
+use crate::expr::split::BatchOutputs;
+use crate::expr::{SplitProgram, Tape};
 
 /// Slot of time in the variables (x, y, z, t).
 const TIME: usize = 3;
 
-/// Points per batch of a program evaluation (the register file of a program of a few hundred
-/// instructions then stays in the L2 cache).
-pub const BATCH: usize = 128;
+/// Points per batch of a program evaluation.
+pub use crate::expr::split::BATCH;
+
+/// Bytes of time-independent values one program may cache per run
+/// ([`crate::expr::SplitProgram`]): 256 MiB, enough for every quadrature point of the finest
+/// default 3D level with room to spare; points beyond it are evaluated whole.
+pub const CACHE_BYTES: usize = 256 << 20;
 
 /// One quantity of the exact solution at a point; `i` indexes components of u or ξ, `j`, `k`
 /// spatial directions.
@@ -53,17 +57,20 @@ pub enum Quantity {
 }
 
 /// A program computing some [`Quantity`]s, and where each one is among its outputs.
+///
+/// The program is split by its dependence on time ([`SplitProgram`]): what does not depend on t
+/// is computed once per quadrature point of a run. A clone shares the compiled code, not the
+/// cache (it starts empty), so that each run caches only its own points.
 #[derive(Debug, Clone)]
 pub struct QuantityProgram<const D: usize> {
-    program: Program,
+    program: SplitProgram,
     quantities: Vec<Quantity>,
 }
 
 /// Columns of the quantities at the points of one batch.
 pub struct Columns<'a, const D: usize> {
     program: &'a QuantityProgram<D>,
-    registers: &'a [f64],
-    count: usize,
+    outputs: &'a BatchOutputs<'a>,
 }
 
 impl<const D: usize> Columns<'_, D> {
@@ -78,9 +85,7 @@ impl<const D: usize> Columns<'_, D> {
             .iter()
             .position(|&q| q == quantity)
             .unwrap_or_else(|| panic!("{quantity:?} was not compiled"));
-        self.program
-            .program
-            .batch_output(self.registers, self.count, k)
+        self.outputs.get(k)
     }
 }
 
@@ -129,19 +134,29 @@ impl<const D: usize> QuantityProgram<D> {
             })
             .collect();
         Self {
-            program: tape.compile(&outputs),
+            program: SplitProgram::new(tape.compile(&outputs), TIME, CACHE_BYTES),
             quantities: quantities.to_vec(),
         }
     }
 
     /// Number of instructions.
     pub fn len(&self) -> usize {
-        self.program.len()
+        self.program.whole().len()
+    }
+
+    /// Number of time-independent values cached per point.
+    pub fn frontier_len(&self) -> usize {
+        self.program.frontier_len()
+    }
+
+    /// Instructions run per point at each evaluation once the points are cached.
+    pub fn varying_len(&self) -> usize {
+        self.program.varying_len()
     }
 
     /// True if the program has no instructions (no quantities).
     pub fn is_empty(&self) -> bool {
-        self.program.is_empty()
+        self.program.whole().is_empty()
     }
 
     /// Evaluates the quantities at `points` and time `t` in batches of [`BATCH`] points, calling
@@ -152,27 +167,14 @@ impl<const D: usize> QuantityProgram<D> {
         t: f64,
         mut each: impl FnMut(usize, &Columns<'_, D>),
     ) {
-        with_registers(|registers: &mut Vec<f64>| {
-            let mut inputs = [[0.0; BATCH]; 4];
-            inputs[TIME] = [t; BATCH];
-            for (batch, chunk) in points.chunks(BATCH).enumerate() {
-                let count = chunk.len();
-                for (p, x) in chunk.iter().enumerate() {
-                    for (j, &xj) in x.iter().enumerate() {
-                        inputs[j][p] = xj;
-                    }
-                }
-                let columns: [&[f64]; 4] = std::array::from_fn(|v| &inputs[v][..count]);
-                self.program.eval_batch(&columns, count, registers);
-                each(
-                    batch * BATCH,
-                    &Columns {
-                        program: self,
-                        registers,
-                        count,
-                    },
-                );
-            }
+        self.program.for_batches(points, t, |offset, outputs| {
+            each(
+                offset,
+                &Columns {
+                    program: self,
+                    outputs,
+                },
+            )
         });
     }
 }

@@ -1,0 +1,394 @@
+//! Programs split by their dependence on time, with the time-independent part cached per
+//! point: loop-invariant code motion over the time steps.
+//!
+//! Why: the data of a case are evaluated at the same quadrature points at every time step,
+//! and most of their instructions do not depend on t: in `0.05*x*y*(1+t) + 0.5*t*max(0,
+//! x − 0.6)⁴*(1+y)` and its derivatives the powers of the join, the products in x and y and
+//! every `sin`/`cos` of a coordinate are the same at every step. A [`SplitProgram`] is the
+//! [`Program`] cut in two:
+//!
+//! - the **invariant** part: every instruction that does not depend on the time variable,
+//!   whose outputs are the *frontier*, the invariant registers that a time-dependent
+//!   instruction reads or that are outputs themselves (constants and variables excepted: they
+//!   cost nothing to recompute);
+//! - the **varying** part: the time-dependent instructions, reading the frontier as extra
+//!   variables after the program's own.
+//!
+//! Each instruction of the varying part is the original instruction on the same operand
+//! values, so the outputs are bitwise those of the whole program (evaluated batch-wise,
+//! [`super::batch`]).
+//!
+//! [`SplitProgram::for_batches`] evaluates the invariant part once per set of points and keeps
+//! its frontier columns in a cache keyed by the points' coordinates (their bits; a hit is
+//! confirmed by comparing the coordinates, so a hash collision costs only a recomputation).
+//! The caller need not say which points repeat: the finite-element code passes the same
+//! quadrature points of a chunk of cells at every step. The cache holds at most the byte
+//! budget given at construction; points beyond it are evaluated with the whole program, so
+//! the budget bounds memory, never correctness.
+
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, RwLock};
+
+use super::compiled::{with_registers, Builder, Instruction, Register};
+use super::Program;
+
+/// Points per batch of an evaluation (the register file of a program of a few hundred
+/// instructions then stays in the L2 cache).
+pub const BATCH: usize = 128;
+
+/// A [`Program`] split into its time-independent and time-dependent parts, with a cache of the
+/// time-independent values per set of points.
+#[derive(Debug)]
+pub struct SplitProgram {
+    /// The whole program: the reference, and the evaluation beyond the cache budget.
+    whole: Program,
+    /// The instructions that do not depend on time; outputs = the frontier.
+    invariant: Program,
+    /// The instructions that do; variables = those of `whole`, then the frontier values.
+    varying: Program,
+    /// Slot of the time variable.
+    time: usize,
+    cache: PointCache,
+}
+
+/// Frontier columns of the points sets seen, by the hash of their coordinates.
+#[derive(Debug, Default)]
+struct PointCache {
+    entries: RwLock<HashMap<u64, Arc<Entry>>>,
+    /// Bytes held by `entries`.
+    bytes: AtomicUsize,
+    /// Most bytes `entries` may hold.
+    budget: usize,
+}
+
+/// One set of points: its coordinates (to confirm a hit) and, batch after batch of
+/// [`BATCH`] points, the frontier columns (`frontier × count` values per batch).
+#[derive(Debug)]
+struct Entry {
+    coordinates: Vec<u64>,
+    frontier: Vec<f64>,
+}
+
+/// Which program produced the outputs of a batch (see [`BatchOutputs::get`]).
+pub struct BatchOutputs<'a> {
+    program: &'a Program,
+    registers: &'a [f64],
+    count: usize,
+}
+
+impl BatchOutputs<'_> {
+    /// The `count` values of output `k` at the points of the batch.
+    pub fn get(&self, k: usize) -> &[f64] {
+        self.program.batch_output(self.registers, self.count, k)
+    }
+
+    /// Number of points of the batch.
+    pub fn count(&self) -> usize {
+        self.count
+    }
+}
+
+/// A clone shares the compiled parts, not the cache: it starts empty, with the same budget.
+impl Clone for SplitProgram {
+    fn clone(&self) -> SplitProgram {
+        SplitProgram {
+            whole: self.whole.clone(),
+            invariant: self.invariant.clone(),
+            varying: self.varying.clone(),
+            time: self.time,
+            cache: PointCache {
+                budget: self.cache.budget,
+                ..PointCache::default()
+            },
+        }
+    }
+}
+
+impl SplitProgram {
+    /// Splits `program` by its dependence on variable `time`; the cache of time-independent
+    /// values holds at most `cache_bytes` bytes.
+    ///
+    /// # Panics
+    /// If `time` is not a variable of the program (a programming error).
+    pub fn new(program: Program, time: usize, cache_bytes: usize) -> SplitProgram {
+        assert!(time < program.variables, "SplitProgram::new: time slot");
+        let instructions = &program.instructions;
+        let count = instructions.len();
+        let mut varies = vec![false; count];
+        for (index, instruction) in instructions.iter().enumerate() {
+            varies[index] = matches!(instruction, Instruction::Variable(slot) if *slot == time)
+                || instruction.operands().any(|r| varies[r as usize]);
+        }
+        let mut needed = vec![false; count];
+        for (index, instruction) in instructions.iter().enumerate() {
+            if varies[index] {
+                for operand in instruction.operands() {
+                    needed[operand as usize] |= !varies[operand as usize];
+                }
+            }
+        }
+        for &output in &program.outputs {
+            needed[output as usize] |= !varies[output as usize];
+        }
+        let frontier: Vec<Register> = (0..count as Register)
+            .filter(|&r| {
+                needed[r as usize]
+                    && !matches!(
+                        instructions[r as usize],
+                        Instruction::Constant(_) | Instruction::Variable(_)
+                    )
+            })
+            .collect();
+        let invariant = Builder::from_instructions(instructions.clone())
+            .finish(frontier.clone(), program.variables);
+        // Same positions, frontier registers replaced by variables: no renumbering needed
+        // before dead-code removal.
+        let mut varying = instructions.clone();
+        for (k, &register) in frontier.iter().enumerate() {
+            varying[register as usize] = Instruction::Variable(program.variables + k);
+        }
+        let varying = Builder::from_instructions(varying)
+            .finish(program.outputs.clone(), program.variables + frontier.len());
+        SplitProgram {
+            whole: program,
+            invariant,
+            varying,
+            time,
+            cache: PointCache {
+                budget: cache_bytes,
+                ..PointCache::default()
+            },
+        }
+    }
+
+    /// The whole program.
+    pub fn whole(&self) -> &Program {
+        &self.whole
+    }
+
+    /// Number of time-independent values kept per point.
+    pub fn frontier_len(&self) -> usize {
+        self.invariant.outputs.len()
+    }
+
+    /// Instructions of the time-dependent part (run at every evaluation).
+    pub fn varying_len(&self) -> usize {
+        self.varying.len()
+    }
+
+    /// Bytes held by the cache.
+    pub fn cached_bytes(&self) -> usize {
+        self.cache.bytes.load(Ordering::Relaxed)
+    }
+
+    /// Evaluates the outputs at `points` (their coordinates fill the first `D` variables, the
+    /// other variables but time are 0) and time `t`, in batches of [`BATCH`] points, calling
+    /// `each(offset, outputs)` for the batch starting at `points[offset]`, in order.
+    ///
+    /// # Panics
+    /// If the program has fewer than `D + 1` variables, or more than 4.
+    pub fn for_batches<const D: usize>(
+        &self,
+        points: &[[f64; D]],
+        t: f64,
+        mut each: impl FnMut(usize, &BatchOutputs<'_>),
+    ) {
+        let variables = self.whole.variables;
+        assert!(D < variables && variables <= 4, "SplitProgram: variables");
+        let entry = self.cached(points);
+        let frontier = self.frontier_len();
+        with_registers(|registers: &mut Vec<f64>| {
+            let mut inputs = [[0.0; BATCH]; 4];
+            inputs[self.time] = [t; BATCH];
+            for (batch, chunk) in points.chunks(BATCH).enumerate() {
+                let count = chunk.len();
+                fill_coordinates(&mut inputs, chunk);
+                let offset = batch * BATCH;
+                let program = match &entry {
+                    Some(entry) => {
+                        let cached = &entry.frontier[offset * frontier..][..count * frontier];
+                        let columns: Vec<&[f64]> = (0..variables)
+                            .map(|v| &inputs[v][..count])
+                            .chain(cached.chunks(count))
+                            .collect();
+                        self.varying.eval_batch(&columns, count, registers);
+                        &self.varying
+                    }
+                    None => {
+                        let columns: Vec<&[f64]> =
+                            (0..variables).map(|v| &inputs[v][..count]).collect();
+                        self.whole.eval_batch(&columns, count, registers);
+                        &self.whole
+                    }
+                };
+                each(
+                    offset,
+                    &BatchOutputs {
+                        program,
+                        registers,
+                        count,
+                    },
+                );
+            }
+        });
+    }
+
+    /// The cached frontier of `points`, computed now if they are new and the budget allows;
+    /// None beyond the budget.
+    fn cached<const D: usize>(&self, points: &[[f64; D]]) -> Option<Arc<Entry>> {
+        let coordinates = || points.iter().flatten().map(|x| x.to_bits());
+        let mut hasher = rustc_hash::FxHasher::default();
+        points.len().hash(&mut hasher);
+        for bits in coordinates() {
+            bits.hash(&mut hasher);
+        }
+        let key = hasher.finish();
+        let same = |entry: &Entry| entry.coordinates.iter().copied().eq(coordinates());
+        if let Some(entry) = self.cache.entries.read().ok()?.get(&key) {
+            return same(entry).then(|| entry.clone());
+        }
+        let frontier = self.frontier_len();
+        let bytes = points.len() * (frontier + D) * std::mem::size_of::<f64>();
+        let held = self.cache.bytes.fetch_add(bytes, Ordering::Relaxed);
+        if held + bytes > self.cache.budget {
+            self.cache.bytes.fetch_sub(bytes, Ordering::Relaxed);
+            return None;
+        }
+        let mut values = Vec::with_capacity(points.len() * frontier);
+        with_registers(|registers: &mut Vec<f64>| {
+            let mut inputs = [[0.0; BATCH]; 4];
+            for chunk in points.chunks(BATCH) {
+                let count = chunk.len();
+                fill_coordinates(&mut inputs, chunk);
+                let columns: Vec<&[f64]> = (0..self.whole.variables)
+                    .map(|v| &inputs[v][..count])
+                    .collect();
+                self.invariant.eval_batch(&columns, count, registers);
+                for k in 0..frontier {
+                    values.extend_from_slice(self.invariant.batch_output(registers, count, k));
+                }
+            }
+        });
+        let entry = Arc::new(Entry {
+            coordinates: coordinates().collect(),
+            frontier: values,
+        });
+        let mut entries = self.cache.entries.write().ok()?;
+        match entries.get(&key) {
+            // Another thread was first (or a collision): keep the first, give back the bytes.
+            Some(first) => {
+                self.cache.bytes.fetch_sub(bytes, Ordering::Relaxed);
+                same(first).then(|| first.clone())
+            }
+            None => {
+                entries.insert(key, entry.clone());
+                Some(entry)
+            }
+        }
+    }
+}
+
+/// The coordinates of `chunk` into the first `D` input columns.
+fn fill_coordinates<const D: usize>(inputs: &mut [[f64; BATCH]; 4], chunk: &[[f64; D]]) {
+    for (p, x) in chunk.iter().enumerate() {
+        for (j, &xj) in x.iter().enumerate() {
+            inputs[j][p] = xj;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::expr::Expr;
+
+    fn program(sources: &[&str]) -> Program {
+        let parsed: Vec<Expr> = sources
+            .iter()
+            .map(|s| Expr::parse(s, &["x", "y", "z", "t"], &Default::default()).unwrap())
+            .collect();
+        Program::fuse(&parsed.iter().collect::<Vec<_>>())
+    }
+
+    fn points(count: usize) -> Vec<[f64; 2]> {
+        (0..count)
+            .map(|p| [0.013 * p as f64, 1.0 - 0.007 * p as f64])
+            .collect()
+    }
+
+    /// All outputs at `points` and `t`, output-major.
+    fn outputs(split: &SplitProgram, points: &[[f64; 2]], t: f64) -> Vec<Vec<u64>> {
+        let mut values = vec![Vec::new(); split.whole().output_count()];
+        split.for_batches(points, t, |_, batch| {
+            for (k, column) in values.iter_mut().enumerate() {
+                column.extend(batch.get(k).iter().map(|v| v.to_bits()));
+            }
+        });
+        values
+    }
+
+    #[test]
+    fn only_time_dependent_instructions_run_at_each_step() {
+        let split = SplitProgram::new(
+            program(&["sin(pi*x)*cos(pi*y)*(1 + t)", "max(0, x - 0.6)^4*t^2"]),
+            3,
+            1 << 20,
+        );
+        // sin(πx)·cos(πy) and max(0, x − 0.6)⁴ are the frontier.
+        assert_eq!(split.frontier_len(), 2);
+        assert!(split.varying_len() < split.whole().len());
+        assert!(!split
+            .varying
+            .instructions
+            .iter()
+            .any(|i| matches!(i, Instruction::Apply(..) | Instruction::Max(..))));
+    }
+
+    #[test]
+    fn cached_evaluation_is_bitwise_the_whole_program() {
+        let sources = [
+            "sin(pi*x)*cos(pi*y)*(1 + t)",
+            "0.05*x*y*(1+t) + 0.5*t*max(0, x - 0.6)^4*(1+y)",
+            "x^2 + y",
+            "exp(-t)",
+            "3",
+        ];
+        let split = SplitProgram::new(program(&sources), 3, 1 << 20);
+        let whole = SplitProgram::new(program(&sources), 3, 0);
+        let points = points(300);
+        for t in [0.0, 0.25, 1.0] {
+            // First call fills the cache, the second reads it; the budget-0 one never caches.
+            for _ in 0..2 {
+                assert_eq!(outputs(&split, &points, t), outputs(&whole, &points, t));
+            }
+        }
+        assert!(split.cached_bytes() > 0);
+        assert_eq!(whole.cached_bytes(), 0);
+    }
+
+    #[test]
+    fn other_points_with_the_same_count_are_not_mistaken_for_cached_ones() {
+        let split = SplitProgram::new(program(&["sin(pi*x)*(1 + t)"]), 3, 1 << 20);
+        let first = points(50);
+        let mut second = first.clone();
+        second[17][0] += 1e-9;
+        let a = outputs(&split, &first, 0.5);
+        let b = outputs(&split, &second, 0.5);
+        assert_ne!(a[0][17], b[0][17]);
+        assert_eq!(a[0][16], b[0][16]);
+    }
+
+    #[test]
+    fn the_budget_bounds_the_cache() {
+        let split = SplitProgram::new(program(&["sin(pi*x)*(1 + t)"]), 3, 3000);
+        // 100 points × (1 frontier + 2 coordinates) × 8 bytes = 2400 bytes: one set fits.
+        outputs(&split, &points(100), 0.5);
+        assert_eq!(split.cached_bytes(), 2400);
+        let more: Vec<[f64; 2]> = points(100).iter().map(|x| [x[0], x[1] + 1.0]).collect();
+        let reference = SplitProgram::new(program(&["sin(pi*x)*(1 + t)"]), 3, 0);
+        assert_eq!(outputs(&split, &more, 0.5), outputs(&reference, &more, 0.5));
+        assert_eq!(split.cached_bytes(), 2400);
+    }
+}
