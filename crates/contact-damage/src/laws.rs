@@ -745,6 +745,15 @@ impl<const D: usize> Elasticity<D> for ModuliElasticity {
 pub trait DamageSource<const D: usize>: Send + Sync {
     /// φ(ε, β).
     fn source(&self, strain: &Tensor<D>, damage: f64) -> f64;
+    /// φ at a batch of points: `out[p] = φ(strains[p], damages[p])` (all slices of one
+    /// length). The load assembly calls this once per chunk of cells; the default calls
+    /// [`DamageSource::source`] point by point, a law given by an interpreted expression
+    /// evaluates it over the whole batch.
+    fn source_batch(&self, strains: &[Tensor<D>], damages: &[f64], out: &mut [f64]) {
+        for ((strain, &damage), value) in strains.iter().zip(damages).zip(out) {
+            *value = self.source(strain, damage);
+        }
+    }
     /// Checks the parameters against (3.6).
     fn validate(&self) -> Result<()>;
 }

@@ -115,24 +115,40 @@ impl<const D: usize> LoadQuadrature<D> {
                     supply = vec![0.0; points.len()];
                     q.evaluate(points, time, &mut supply);
                 }
+                // ε(u_{n−1}) and β_{n−1} at every point of the chunk, then φ over the batch.
                 let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
-                for (c, out) in out.chunks_mut(local).enumerate() {
+                let mut strains = Vec::with_capacity(points.len());
+                let mut betas = Vec::with_capacity(points.len());
+                let mut point_grads = Vec::with_capacity(points.len() * n);
+                for c in 0..count {
                     let cell = first + c;
                     let geometry = space.geometry(cell);
                     let nodes = space.cell_nodes(cell);
                     for q in 0..nq {
-                        let p = c * nq + q;
                         physical_gradients(geometry, tab, q, &mut grads);
                         let values = &tab.values[q * n..(q + 1) * n];
-                        let strain = field_strain(nodes, &grads[..n], displacement);
-                        let beta: f64 = nodes
-                            .iter()
-                            .zip(values)
-                            .map(|(&node, v)| damage[node] * v)
-                            .sum();
+                        strains.push(field_strain(nodes, &grads[..n], displacement));
+                        point_grads.extend_from_slice(&grads[..n]);
+                        betas.push(
+                            nodes
+                                .iter()
+                                .zip(values)
+                                .map(|(&node, v)| damage[node] * v)
+                                .sum::<f64>(),
+                        );
+                    }
+                }
+                let mut sources = vec![0.0; points.len()];
+                damage_source.source_batch(&strains, &betas, &mut sources);
+                for (c, out) in out.chunks_mut(local).enumerate() {
+                    for q in 0..nq {
+                        let p = c * nq + q;
+                        let grads = &point_grads[p * n..(p + 1) * n];
+                        let values = &tab.values[q * n..(q + 1) * n];
+                        let (strain, beta) = (strains[p], betas[p]);
                         let weight = weights[p];
                         let stress = elasticity.stress(&strain, beta);
-                        let mut source = damage_source.source(&strain, beta);
+                        let mut source = sources[p];
                         if !supply.is_empty() {
                             source += supply[p];
                         }

@@ -18,7 +18,9 @@ use num_dual::{Dual2SVec64, Dual64};
 use serde::{Deserialize, Serialize};
 
 use crate::error::{FileKind, InputError};
-use crate::expr::Expr;
+use crate::expr::compiled::with_registers;
+use crate::expr::split::BATCH;
+use crate::expr::{Expr, Program};
 use crate::file::{parse_expr, positive};
 
 /// The variables of a damage-source expression.
@@ -207,16 +209,16 @@ impl LawsFile {
                 damage_floor: *damage_floor,
                 strain_energy_cap: *strain_energy_cap,
             }),
-            Some(DamageSourceFile::Expression { expr }) => Arc::new(ExpressionDamageSource {
-                expr: parse_expr(
+            Some(DamageSourceFile::Expression { expr }) => {
+                Arc::new(ExpressionDamageSource::new(parse_expr(
                     kind,
                     origin,
                     "laws.damage_source.expr",
                     expr,
                     &SOURCE_VARIABLES,
                     constants,
-                )?,
-            }),
+                )?))
+            }
         };
         let contact = Arc::new(NormalComplianceCoulomb {
             stiffness: laws_file.contact.stiffness,
@@ -347,15 +349,46 @@ impl DamageModuli for ExpressionModuli {
     }
 }
 
-/// A damage source given by an expression in β, tr ε and ε:ε.
+/// A damage source given by an expression in β, tr ε and ε:ε, compiled once; the load
+/// assembly evaluates it over each chunk of quadrature points (batch, instruction-major), with
+/// values bitwise those of the tree ([`crate::expr::compiled`]).
 pub struct ExpressionDamageSource {
     expr: Expr,
+    program: Program,
+}
+
+impl ExpressionDamageSource {
+    /// The source φ = `expr`, an expression in [`SOURCE_VARIABLES`].
+    pub fn new(expr: Expr) -> Self {
+        let program = Program::fuse(&[&expr]);
+        Self { expr, program }
+    }
 }
 
 impl<const D: usize> DamageSource<D> for ExpressionDamageSource {
     fn source(&self, strain: &Tensor<D>, damage: f64) -> f64 {
         self.expr
             .eval_f64(&[damage, strain.trace(), strain.norm_squared()])
+    }
+    fn source_batch(&self, strains: &[Tensor<D>], damages: &[f64], out: &mut [f64]) {
+        with_registers(|registers: &mut Vec<f64>| {
+            let mut inputs = [[0.0; BATCH]; 3];
+            for ((strains, damages), out) in strains
+                .chunks(BATCH)
+                .zip(damages.chunks(BATCH))
+                .zip(out.chunks_mut(BATCH))
+            {
+                let count = strains.len();
+                for (p, (strain, &damage)) in strains.iter().zip(damages).enumerate() {
+                    inputs[0][p] = damage;
+                    inputs[1][p] = strain.trace();
+                    inputs[2][p] = strain.norm_squared();
+                }
+                let columns: [&[f64]; 3] = std::array::from_fn(|v| &inputs[v][..count]);
+                self.program.eval_batch(&columns, count, registers);
+                out.copy_from_slice(self.program.batch_output(registers, count, 0));
+            }
+        });
     }
     fn validate(&self) -> contact_damage::Result<()> {
         for beta in [0.0, 0.5, 1.0] {
@@ -369,5 +402,41 @@ impl<const D: usize> DamageSource<D> for ExpressionDamageSource {
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use contact_damage::laws::Tensor;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The batch of the load assembly gives bitwise the point-by-point values, across
+        /// batch boundaries.
+        #[test]
+        fn expression_source_batch_is_bitwise_pointwise(
+            points in proptest::collection::vec(
+                (-2.0..2.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64), 1..300),
+        ) {
+            let expr = Expr::parse(
+                "0.02*(1 - beta)/max(beta, 0.05) - 10*min(eps_eps, 0.2) + exp(tr_eps)^2",
+                &SOURCE_VARIABLES,
+                &BTreeMap::new(),
+            )
+            .unwrap();
+            let law = ExpressionDamageSource::new(expr);
+            let strains: Vec<Tensor<2>> = points
+                .iter()
+                .map(|&(_, a, b, c)| Tensor::<2>::new(a, b, b, c))
+                .collect();
+            let damages: Vec<f64> = points.iter().map(|p| p.0).collect();
+            let mut batch = vec![f64::NAN; points.len()];
+            DamageSource::<2>::source_batch(&law, &strains, &damages, &mut batch);
+            for ((strain, &damage), value) in strains.iter().zip(&damages).zip(&batch) {
+                let pointwise = DamageSource::<2>::source(&law, strain, damage);
+                prop_assert_eq!(value.to_bits(), pointwise.to_bits());
+            }
+        }
     }
 }
