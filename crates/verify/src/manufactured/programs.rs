@@ -64,7 +64,35 @@ pub enum Quantity {
 #[derive(Debug, Clone)]
 pub struct QuantityProgram<const D: usize> {
     program: SplitProgram,
-    quantities: Vec<Quantity>,
+    /// The output of each quantity, by [`Quantity::index`]; [`NOT_COMPILED`] if none.
+    output_of: [u16; QUANTITIES],
+}
+
+/// Number of distinct [`Quantity`] values (components up to 3).
+const QUANTITIES: usize = 89;
+
+/// Entry of `output_of` for a quantity the program does not compute.
+const NOT_COMPILED: u16 = u16::MAX;
+
+impl Quantity {
+    /// A dense index in `0..QUANTITIES`.
+    fn index(self) -> usize {
+        match self {
+            Quantity::U(i) => i,
+            Quantity::Rate(i) => 3 + i,
+            Quantity::Gradient(i, j) => 6 + 3 * i + j,
+            Quantity::RateGradient(i, j) => 15 + 3 * i + j,
+            Quantity::Hessian(i, j, k) => 24 + 9 * i + 3 * j + k,
+            Quantity::RateHessian(i, j, k) => 51 + 9 * i + 3 * j + k,
+            Quantity::Damage => 78,
+            Quantity::DamageRate => 79,
+            Quantity::DamageGradient(j) => 80 + j,
+            Quantity::DamageLaplacian => 83,
+            Quantity::StickTraction(i) => 84 + i,
+            Quantity::Multiplier => 87,
+            Quantity::Gap => 88,
+        }
+    }
 }
 
 /// Columns of the quantities at the points of one batch.
@@ -79,13 +107,10 @@ impl<const D: usize> Columns<'_, D> {
     /// # Panics
     /// If the program was not compiled with `quantity` (a programming error).
     pub fn get(&self, quantity: Quantity) -> &[f64] {
-        let k = self
-            .program
-            .quantities
-            .iter()
-            .position(|&q| q == quantity)
-            .unwrap_or_else(|| panic!("{quantity:?} was not compiled"));
-        self.outputs.get(k)
+        match self.program.output_of[quantity.index()] {
+            NOT_COMPILED => panic!("{quantity:?} was not compiled"),
+            k => self.outputs.get(k as usize),
+        }
     }
 }
 
@@ -133,9 +158,13 @@ impl<const D: usize> QuantityProgram<D> {
                 Quantity::Gap => tape.expression(&exact.gap),
             })
             .collect();
+        let mut output_of = [NOT_COMPILED; QUANTITIES];
+        for (k, quantity) in quantities.iter().enumerate() {
+            output_of[quantity.index()] = k as u16;
+        }
         Self {
             program: SplitProgram::new(tape.compile(&outputs), TIME, CACHE_BYTES),
-            quantities: quantities.to_vec(),
+            output_of,
         }
     }
 
@@ -242,4 +271,38 @@ fn gradients<const D: usize>() -> Vec<Quantity> {
         }
     }
     q
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantity_indices_are_dense_and_distinct() {
+        let mut all = Vec::new();
+        for i in 0..3 {
+            all.extend([
+                Quantity::U(i),
+                Quantity::Rate(i),
+                Quantity::DamageGradient(i),
+                Quantity::StickTraction(i),
+            ]);
+            for j in 0..3 {
+                all.extend([Quantity::Gradient(i, j), Quantity::RateGradient(i, j)]);
+                for k in 0..3 {
+                    all.extend([Quantity::Hessian(i, j, k), Quantity::RateHessian(i, j, k)]);
+                }
+            }
+        }
+        all.extend([
+            Quantity::Damage,
+            Quantity::DamageRate,
+            Quantity::DamageLaplacian,
+            Quantity::Multiplier,
+            Quantity::Gap,
+        ]);
+        let mut indices: Vec<usize> = all.iter().map(|q| q.index()).collect();
+        indices.sort_unstable();
+        assert_eq!(indices, (0..QUANTITIES).collect::<Vec<_>>());
+    }
 }
