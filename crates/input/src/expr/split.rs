@@ -19,8 +19,9 @@
 //! [`super::batch`]).
 //!
 //! [`SplitProgram::for_batches`] evaluates the invariant part once per set of points and keeps
-//! its frontier columns in a cache keyed by the points' coordinates (their bits; a hit is
-//! confirmed by comparing the coordinates, so a hash collision costs only a recomputation).
+//! its frontier columns in a cache keyed by the slice of points (its address, length, first and
+//! last point); a hit is confirmed by comparing every coordinate, so points that changed in
+//! place, or a key collision, cost only an evaluation of the whole program.
 //! The caller need not say which points repeat: the finite-element code passes the same
 //! quadrature points of a chunk of cells at every step. The cache holds at most the byte
 //! budget given at construction; points beyond it are evaluated with the whole program, so
@@ -69,7 +70,7 @@ struct PointCache {
 /// [`BATCH`] points, the frontier columns (`frontier × count` values per batch).
 #[derive(Debug)]
 struct Entry {
-    coordinates: Vec<u64>,
+    coordinates: Vec<u8>,
     frontier: Vec<f64>,
 }
 
@@ -240,14 +241,17 @@ impl SplitProgram {
     /// The cached frontier of `points`, computed now if they are new and the budget allows;
     /// None beyond the budget.
     fn cached<const D: usize>(&self, points: &[[f64; D]]) -> Option<Arc<Entry>> {
-        let coordinates = || points.iter().flatten().map(|x| x.to_bits());
+        // The coordinates as bytes: a hit is confirmed bit for bit (one memcmp).
+        let coordinates: &[u8] = bytemuck::cast_slice(points);
+        // The key names the slice (address, length, first and last point): the finite-element
+        // code passes the same slices of its quadrature points at every step.
         let mut hasher = rustc_hash::FxHasher::default();
-        points.len().hash(&mut hasher);
-        for bits in coordinates() {
-            bits.hash(&mut hasher);
+        (points.as_ptr() as usize, points.len()).hash(&mut hasher);
+        for x in points.first().into_iter().chain(points.last()).flatten() {
+            x.to_bits().hash(&mut hasher);
         }
         let key = hasher.finish();
-        let same = |entry: &Entry| entry.coordinates.iter().copied().eq(coordinates());
+        let same = |entry: &Entry| entry.coordinates == coordinates;
         if let Some(entry) = self.cache.entries.read().ok()?.get(&key) {
             return same(entry).then(|| entry.clone());
         }
@@ -274,7 +278,7 @@ impl SplitProgram {
             }
         });
         let entry = Arc::new(Entry {
-            coordinates: coordinates().collect(),
+            coordinates: coordinates.to_vec(),
             frontier: values,
         });
         let mut entries = self.cache.entries.write().ok()?;
