@@ -91,6 +91,9 @@ pub struct ErrorTracker<const D: usize> {
     steps: usize,
     /// Reference ε(u) at the quadrature points at the previous time.
     previous_strain: Vec<Tensor<D>>,
+    /// The buffer of the next step's exact strains (the previous step's, reused: no
+    /// allocation per step).
+    spare_strain: Vec<Tensor<D>>,
     /// The previous reference state index or discrete displacement (discrete reference).
     previous_displacement: Vec<f64>,
     errors: ErrorComponents,
@@ -120,6 +123,7 @@ impl<const D: usize> ErrorTracker<D> {
             time_step,
             steps,
             previous_strain: Vec::new(),
+            spare_strain: Vec::new(),
             previous_displacement: Vec::new(),
             errors: ErrorComponents::default(),
             gradient_sum: 0.0,
@@ -171,7 +175,9 @@ impl<const D: usize> ErrorTracker<D> {
         let k = self.time_step;
         let t = state.time;
         // squared norms: [u, δu, β, ∇β, v]
-        let mut new_strain = vec![Tensor::<D>::zeros(); space.mesh().num_cells() * nq];
+        // Every entry is written below.
+        let mut new_strain = std::mem::take(&mut self.spare_strain);
+        new_strain.resize(space.mesh().num_cells() * nq, Tensor::<D>::zeros());
         let reference_state = match &self.reference {
             Reference::Discrete(states) => {
                 let stride = (states.len() - 1) / self.steps;
@@ -291,7 +297,9 @@ impl<const D: usize> ErrorTracker<D> {
             self.errors.velocity.max(sums[4].sqrt())
         };
         match &self.reference {
-            Reference::Exact(_) => self.previous_strain = new_strain,
+            Reference::Exact(_) => {
+                self.spare_strain = std::mem::replace(&mut self.previous_strain, new_strain)
+            }
             Reference::Discrete(_) => {
                 self.previous_displacement = reference_state
                     .map(|s| s.displacement.clone())

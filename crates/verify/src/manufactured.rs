@@ -224,6 +224,7 @@ pub fn stress_at<const D: usize>(laws: &Laws<D>, state: &PointState<D>) -> Tenso
 }
 
 /// f0 = −Div σ by the chain rule: ∂_j σ = 𝒜'(ε(u̇))[∂_j ε(u̇)] + ∂_ε G[∂_j ε(u)] + ∂_β G ∂_j β.
+#[inline]
 pub fn body_force_at<const D: usize>(laws: &Laws<D>, state: &PointState<D>) -> [f64; D] {
     let rate = symmetric(&state.velocity_gradient);
     let strain = symmetric(&state.displacement_gradient);

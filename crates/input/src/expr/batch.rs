@@ -18,9 +18,27 @@ impl Program {
     /// # Panics
     /// If `inputs` does not have one column of `count` values per variable.
     pub fn eval_batch(&self, inputs: &[&[f64]], count: usize, registers: &mut Vec<f64>) {
+        self.eval_batch_with_block(inputs, &[], count, registers)
+    }
+
+    /// As [`Program::eval_batch`], with the variables after the first `inputs.len()` taken
+    /// from `block`, one column of `count` values after the other (variable
+    /// `inputs.len() + k` is `block[k·count .. (k+1)·count]`): the cached frontier of a
+    /// [`super::SplitProgram`].
+    ///
+    /// # Panics
+    /// If `inputs` and `block` do not hold one column of `count` values per variable.
+    pub fn eval_batch_with_block(
+        &self,
+        inputs: &[&[f64]],
+        block: &[f64],
+        count: usize,
+        registers: &mut Vec<f64>,
+    ) {
+        let direct = inputs.len();
         assert_eq!(
-            inputs.len(),
-            self.variables,
+            direct * count + block.len(),
+            self.variables * count,
             "Program::eval_batch: variables"
         );
         assert!(
@@ -35,8 +53,12 @@ impl Program {
             let (done, rest) = registers.split_at_mut(index * count);
             let out = &mut rest[..count];
             // A variable's register is read from its input column directly (no copy).
+            let column = |slot: usize| match slot.checked_sub(direct) {
+                None => inputs[slot],
+                Some(k) => &block[k * count..][..count],
+            };
             let r = |register: u32| match self.instructions[register as usize] {
-                Instruction::Variable(slot) => inputs[slot],
+                Instruction::Variable(slot) => column(slot),
                 _ => &done[register as usize * count..][..count],
             };
             match *instruction {
@@ -44,7 +66,7 @@ impl Program {
                 Instruction::Variable(slot) => {
                     // Copied only where it is an output (read from the registers).
                     if self.outputs.contains(&(index as u32)) {
-                        out.copy_from_slice(inputs[slot])
+                        out.copy_from_slice(column(slot))
                     }
                 }
                 Instruction::Negate(a) => {

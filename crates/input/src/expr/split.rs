@@ -209,20 +209,21 @@ impl SplitProgram {
                 let count = chunk.len();
                 fill_coordinates(&mut inputs, chunk);
                 let offset = batch * BATCH;
+                let columns: [&[f64]; 4] = std::array::from_fn(|v| &inputs[v][..count]);
                 let program = match &entry {
                     Some(entry) => {
                         let cached = &entry.frontier[offset * frontier..][..count * frontier];
-                        let columns: Vec<&[f64]> = (0..variables)
-                            .map(|v| &inputs[v][..count])
-                            .chain(cached.chunks(count))
-                            .collect();
-                        self.varying.eval_batch(&columns, count, registers);
+                        self.varying.eval_batch_with_block(
+                            &columns[..variables],
+                            cached,
+                            count,
+                            registers,
+                        );
                         &self.varying
                     }
                     None => {
-                        let columns: Vec<&[f64]> =
-                            (0..variables).map(|v| &inputs[v][..count]).collect();
-                        self.whole.eval_batch(&columns, count, registers);
+                        self.whole
+                            .eval_batch(&columns[..variables], count, registers);
                         &self.whole
                     }
                 };
@@ -268,10 +269,9 @@ impl SplitProgram {
             for chunk in points.chunks(BATCH) {
                 let count = chunk.len();
                 fill_coordinates(&mut inputs, chunk);
-                let columns: Vec<&[f64]> = (0..self.whole.variables)
-                    .map(|v| &inputs[v][..count])
-                    .collect();
-                self.invariant.eval_batch(&columns, count, registers);
+                let columns: [&[f64]; 4] = std::array::from_fn(|v| &inputs[v][..count]);
+                self.invariant
+                    .eval_batch(&columns[..self.whole.variables], count, registers);
                 for k in 0..frontier {
                     values.extend_from_slice(self.invariant.batch_output(registers, count, k));
                 }
