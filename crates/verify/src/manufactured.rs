@@ -216,6 +216,7 @@ impl<const D: usize> ExactSolution<D> {
 }
 
 /// σ = 𝒜ε(u̇) + G(ε(u), β) (2.1).
+#[inline]
 pub fn stress_at<const D: usize>(laws: &Laws<D>, state: &PointState<D>) -> Tensor<D> {
     laws.viscosity.stress(&symmetric(&state.velocity_gradient))
         + laws
@@ -249,6 +250,7 @@ pub fn body_force_at<const D: usize>(laws: &Laws<D>, state: &PointState<D>) -> [
 }
 
 /// f2 = σν on Γ2 (2.6).
+#[inline]
 pub fn traction_at<const D: usize>(
     laws: &Laws<D>,
     state: &PointState<D>,
@@ -296,6 +298,7 @@ pub fn friction_direction<const D: usize>(
 }
 
 /// f3 = σν + p_ν(r) ν + p_τ(r) ξ̂ on Γ3 with the penetration r = u_ν − g (SPEC §4).
+#[inline]
 pub fn contact_traction_at<const D: usize>(
     laws: &Laws<D>,
     state: &PointState<D>,
@@ -325,6 +328,7 @@ pub struct DamageJet {
 }
 
 /// q = β̇ − κΔβ + η − φ(ε(u), β) (SPEC §4).
+#[inline]
 pub fn damage_supply_at<const D: usize>(
     laws: &Laws<D>,
     damage: &DamageJet,
@@ -336,6 +340,7 @@ pub fn damage_supply_at<const D: usize>(
 }
 
 /// κ ∂β/∂ν.
+#[inline]
 pub fn damage_flux_at<const D: usize>(
     laws: &Laws<D>,
     damage_gradient: &SVector<f64, D>,
