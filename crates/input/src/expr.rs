@@ -1733,6 +1733,52 @@ mod tests {
         }
 
         #[test]
+        fn split_programs_are_bitwise_the_whole_program_on_random_expressions(
+            tree in tree_strategy(),
+            points in proptest::collection::vec(proptest::array::uniform3(-2.0f64..2.0), 1..80),
+            times in proptest::collection::vec(-2.0f64..2.0, 1..4),
+        ) {
+            let source = print(&tree, 0);
+            let Ok(expression) = Expr::parse(&source, &SPACE_TIME, &user_constants()) else {
+                return Ok(());
+            };
+            let mut tape = Tape::new(4);
+            let value = tape.expression(&expression);
+            let rate = tape.derivative(value, 3);
+            let mut outputs = vec![value, rate];
+            for j in 0..3 {
+                outputs.push(tape.derivative(value, j));
+                outputs.push(tape.derivative(rate, j));
+            }
+            let program = tape.compile(&outputs);
+            let split = split::SplitProgram::new(program.clone(), 3, 1 << 24);
+            let count = points.len();
+            let mut registers = Vec::new();
+            for &t in &times {
+                let columns: Vec<Vec<f64>> = (0..3)
+                    .map(|v| points.iter().map(|p| p[v]).collect())
+                    .chain([vec![t; count]])
+                    .collect();
+                let inputs: Vec<&[f64]> = columns.iter().map(|c| c.as_slice()).collect();
+                program.eval_batch(&inputs, count, &mut registers);
+                // The first time fills the cache, later times read it.
+                split.for_batches(&points, t, |offset, batch| {
+                    for k in 0..program.output_count() {
+                        let whole = &program.batch_output(&registers, count, k)[offset..][..batch.count()];
+                        for (p, (a, b)) in batch.get(k).iter().zip(whole).enumerate() {
+                            assert!(
+                                a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()),
+                                "`{source}` output {k} at {:?}, t = {t}: {a} vs {b}",
+                                points[offset + p]
+                            );
+                        }
+                    }
+                });
+            }
+            prop_assert!(split.cached_bytes() > 0 || split.frontier_len() == 0);
+        }
+
+        #[test]
         fn garbage_never_panics(source in "[-+*/^(),.0-9a-z_ eE#]{0,40}") {
             if let Ok(expression) = Expr::parse(&source, &SPACE_TIME, &user_constants()) {
                 let _ = expression.eval_f64(&[0.1, 0.2, 0.3, 0.4]);
