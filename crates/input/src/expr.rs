@@ -1554,6 +1554,18 @@ mod tests {
         )
     }
 
+    /// The value of `expression` on `tape`, its time derivative, and (∂j, ∂j∂t) for j = x, y, z.
+    fn first_derivatives(tape: &mut Tape, expression: &Expr) -> Vec<derivative::Value> {
+        let value = tape.expression(expression);
+        let rate = tape.derivative(value, 3);
+        let mut outputs = vec![value, rate];
+        for j in 0..3 {
+            outputs.push(tape.derivative(value, j));
+            outputs.push(tape.derivative(rate, j));
+        }
+        outputs
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(256))]
 
@@ -1638,13 +1650,8 @@ mod tests {
             };
             // Every derivative the manufactured data use: value, ∂t, ∂j, ∂j∂t, ∂j∂k, ∂j∂k∂t.
             let mut tape = Tape::new(4);
-            let value = tape.expression(&expression);
-            let rate = tape.derivative(value, 3);
-            let mut outputs = vec![value, rate];
-            for j in 0..3 {
-                outputs.push(tape.derivative(value, j));
-                outputs.push(tape.derivative(rate, j));
-            }
+            let mut outputs = first_derivatives(&mut tape, &expression);
+            let (value, rate) = (outputs[0], outputs[1]);
             for j in 0..3 {
                 for k in j..3 {
                     let first = tape.derivative(value, j);
@@ -1743,13 +1750,7 @@ mod tests {
                 return Ok(());
             };
             let mut tape = Tape::new(4);
-            let value = tape.expression(&expression);
-            let rate = tape.derivative(value, 3);
-            let mut outputs = vec![value, rate];
-            for j in 0..3 {
-                outputs.push(tape.derivative(value, j));
-                outputs.push(tape.derivative(rate, j));
-            }
+            let outputs = first_derivatives(&mut tape, &expression);
             let program = tape.compile(&outputs);
             let split = split::SplitProgram::new(program.clone(), 3, 1 << 24);
             let count = points.len();
