@@ -398,6 +398,94 @@ impl CholeskySolver {
         );
         Ok(())
     }
+
+    /// The forward half of a solve with a supernodal factor P A Pᵀ = L Lᵀ: z = L⁻¹ P b, in
+    /// elimination order. With [`CholeskySolver::backward_solve`], x = Pᵀ L⁻ᵀ z = A⁻¹ b. None
+    /// for a simplicial factor; an error before factorization or for a wrong length.
+    ///
+    /// Used where the trailing unknowns of the ordering carry a correction between the two
+    /// halves: a right-hand side that changes only there changes only the trailing block of z
+    /// (the velocity step (5.1) with its contact unknowns last, [`Self::trailing_factor`]).
+    pub fn forward_solve(&self, rhs: &[f64]) -> Result<Option<Vec<f64>>> {
+        let Some(factor) = self.supernodal()? else {
+            return Ok(None);
+        };
+        self.check_length(rhs.len())?;
+        let mut z = match self.symbolic.perm() {
+            Some(perm) => Mat::<f64>::from_fn(self.size, 1, |i, _| rhs[perm.arrays().0[i]]),
+            None => Mat::<f64>::from_fn(self.size, 1, |i, _| rhs[i]),
+        };
+        self.with_solve_stack(|stack| {
+            factor.l_solve_with_conj(Conj::No, z.as_mut(), faer::Par::Seq, stack)
+        })?;
+        Ok(Some((0..self.size).map(|i| z[(i, 0)]).collect()))
+    }
+
+    /// The backward half: x = Pᵀ L⁻ᵀ z for z in elimination order (see
+    /// [`CholeskySolver::forward_solve`]). None for a simplicial factor.
+    pub fn backward_solve(&self, z: &[f64]) -> Result<Option<Vec<f64>>> {
+        let Some(factor) = self.supernodal()? else {
+            return Ok(None);
+        };
+        self.check_length(z.len())?;
+        let mut y = Mat::<f64>::from_fn(self.size, 1, |i, _| z[i]);
+        self.with_solve_stack(|stack| {
+            factor.l_transpose_solve_with_conj(Conj::No, y.as_mut(), faer::Par::Seq, stack)
+        })?;
+        let mut x = vec![0.0; self.size];
+        match self.symbolic.perm() {
+            Some(perm) => {
+                for (i, &unknown) in perm.arrays().0.iter().enumerate() {
+                    x[unknown] = y[(i, 0)];
+                }
+            }
+            None => {
+                for (i, value) in x.iter_mut().enumerate() {
+                    *value = y[(i, 0)];
+                }
+            }
+        }
+        Ok(Some(x))
+    }
+
+    /// The supernodal factor, None if the factor is simplicial; an error before factorization.
+    fn supernodal(&self) -> Result<Option<SupernodalLltRef<'_, usize, f64>>> {
+        let values = self.factor.as_ref().ok_or_else(|| Error::LinearAlgebra {
+            context: self.context.into(),
+            message: "solve requested before factorization".into(),
+        })?;
+        Ok(match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(symbolic) => {
+                Some(SupernodalLltRef::new(symbolic, values))
+            }
+            SymbolicCholeskyRaw::Simplicial(_) => None,
+        })
+    }
+
+    /// An error unless `len` is the number of unknowns.
+    fn check_length(&self, len: usize) -> Result<()> {
+        if len == self.size {
+            return Ok(());
+        }
+        Err(Error::InvalidInput(format!(
+            "{}: right-hand side has length {len}, expected {}",
+            self.context, self.size
+        )))
+    }
+
+    /// Runs `f` with a workspace large enough for a solve with one right-hand side.
+    fn with_solve_stack(&self, f: impl FnOnce(&mut MemStack)) -> Result<()> {
+        let mut memory = MemBuffer::try_new(
+            self.symbolic
+                .solve_in_place_scratch::<f64>(1, faer::Par::Seq),
+        )
+        .map_err(|e| Error::LinearAlgebra {
+            context: self.context.into(),
+            message: format!("out of memory for the solve workspace: {e:?}"),
+        })?;
+        f(MemStack::new(&mut memory));
+        Ok(())
+    }
 }
 
 /// y = A x for a sparse matrix in full (both triangles) storage.
@@ -447,6 +535,49 @@ mod tests {
         solver.factorize(&matrix).unwrap();
         let y = solver.solve(&[2.0, 3.0]).unwrap();
         assert!((y[0] - 1.0).abs() < 1e-14 && (y[1] - 1.0).abs() < 1e-14);
+    }
+
+    #[test]
+    fn forward_and_backward_halves_compose_to_a_solve() {
+        // the 2D five-point Laplacian plus identity on a 12 × 12 grid
+        let side = 12;
+        let n = side * side;
+        let mut triplets = Vec::new();
+        for i in 0..side {
+            for j in 0..side {
+                let row = i * side + j;
+                triplets.push(faer::sparse::Triplet::new(row, row, 5.0));
+                for (di, dj) in [(0, 1), (1, 0)] {
+                    let (k, l) = (i + di, j + dj);
+                    if k < side && l < side {
+                        let col = k * side + l;
+                        triplets.push(faer::sparse::Triplet::new(row, col, -1.0));
+                        triplets.push(faer::sparse::Triplet::new(col, row, -1.0));
+                    }
+                }
+            }
+        }
+        let matrix = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets).unwrap();
+        let rhs: Vec<f64> = (0..n)
+            .map(|i| ((i * 7919) % 101) as f64 / 50.0 - 1.0)
+            .collect();
+        for kind in [FactorKind::Supernodal, FactorKind::Simplicial] {
+            let mut solver = CholeskySolver::analyse_as(&matrix, kind, "test matrix").unwrap();
+            assert!(solver.forward_solve(&rhs).is_err(), "before factorization");
+            solver.factorize(&matrix).unwrap();
+            let direct = solver.solve(&rhs).unwrap();
+            match solver.forward_solve(&rhs).unwrap() {
+                Some(z) => {
+                    assert_eq!(kind, FactorKind::Supernodal);
+                    let halves = solver.backward_solve(&z).unwrap().unwrap();
+                    for (a, b) in halves.iter().zip(&direct) {
+                        assert!((a - b).abs() <= 1e-13, "{a} vs {b}");
+                    }
+                    assert!(solver.forward_solve(&rhs[1..]).is_err(), "wrong length");
+                }
+                None => assert_eq!(kind, FactorKind::Simplicial),
+            }
+        }
     }
 
     #[test]

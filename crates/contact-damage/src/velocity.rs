@@ -27,7 +27,12 @@
 //! solved exactly by [`crate::friction`]. It is solved in increment form (right-hand side
 //! F − N(v_k), no cancellation against H_k v_k). For a linear 𝒜 the model is J itself, so one
 //! iteration solves (5.1) exactly, and H, its Cholesky factor and S are computed once per run
-//! and reused in every time step (two sparse solves and one small dense problem per step).
+//! and reused in every time step. With the tangential unknowns eliminated last (a supernodal
+//! factor P H Pᵀ = L Lᵀ, [`crate::linalg::CholeskySolver::trailing_factor`]) a model solve is
+//! ONE sparse solve split in its halves: the forward half z = L⁻¹ P b gives the condensed
+//! right-hand side S (H⁻¹ b)_c = L_cc z_c, the friction forces change only the trailing block
+//! of z (z_c ← z_c − L_cc⁻¹ W λ), and the backward half gives the velocity
+//! (`VelocityOperator::solve_model`; two solves with a simplicial factor).
 //!
 //! **Merit function and stop test (nonlinear 𝒜).** The KKT residual of an iterate v is computed
 //! from v alone: the multipliers are the best ones at v ([`VelocityOperator::best_multipliers`]:
@@ -188,12 +193,24 @@ pub struct VelocityOperator<const D: usize> {
     tangential: Vec<usize>,
     /// S = (E_cᵀ H^{-1} E_c)^{-1} for the current factorization.
     schur: Mat<f64>,
+    /// The trailing block of a supernodal factor whose last unknowns are the tangential ones
+    /// (then S = L_cc L_ccᵀ and a step needs one solve, [`Self::solve_model`]).
+    trailing: Option<TrailingFactor>,
     /// The velocity at which H was last assembled (nonlinear 𝒜).
     linearized_at: Option<Vec<f64>>,
     /// The implicit normal compliance of the current step, if any.
     implicit: Option<ImplicitNormalCompliance>,
     /// True while `matrix` is the plain viscous operator (false after a Newton tangent).
     matrix_is_plain: bool,
+}
+
+/// The trailing block L_cc of the velocity factor when the tangential contact unknowns are
+/// eliminated last (elimination order), and the position in `tangential` of each of its
+/// unknowns.
+#[derive(Debug, Clone)]
+struct TrailingFactor {
+    factor: Mat<f64>,
+    index: Vec<usize>,
 }
 
 impl<const D: usize> VelocityOperator<D> {
@@ -311,6 +328,7 @@ impl<const D: usize> VelocityOperator<D> {
             })?,
             tangential,
             schur: Mat::zeros(0, 0),
+            trailing: None,
             linearized_at: None,
             implicit: None,
             matrix_is_plain: true,
@@ -543,9 +561,9 @@ impl<const D: usize> VelocityOperator<D> {
     /// contact unknowns: Z = E_cᵀ H^{-1} E_c (block solves), S = Z^{-1}.
     fn factorize(&mut self) -> Result<()> {
         self.solver.factorize(&self.matrix)?;
-        self.schur = match self.schur_from_trailing_factor() {
-            Some(schur) => schur,
-            None => self.schur_from_solves()?,
+        (self.schur, self.trailing) = match self.schur_from_trailing_factor() {
+            Some((schur, trailing)) => (schur, Some(trailing)),
+            None => (self.schur_from_solves()?, None),
         };
         Ok(())
     }
@@ -593,10 +611,10 @@ impl<const D: usize> VelocityOperator<D> {
         }))
     }
 
-    /// S = L_cc L_ccᵀ from the trailing block of the factor, in the order of `tangential`; None
-    /// when the factor is simplicial or its last unknowns are not the tangential ones (then
-    /// [`Self::factorize`] falls back to m solves).
-    fn schur_from_trailing_factor(&self) -> Option<Mat<f64>> {
+    /// S = L_cc L_ccᵀ from the trailing block of the factor, in the order of `tangential`, and
+    /// that block; None when the factor is simplicial or its last unknowns are not the
+    /// tangential ones (then [`Self::factorize`] falls back to m solves).
+    fn schur_from_trailing_factor(&self) -> Option<(Mat<f64>, TrailingFactor)> {
         let m = self.tangential.len();
         if m == 0 {
             return None;
@@ -617,7 +635,13 @@ impl<const D: usize> VelocityOperator<D> {
                 schur[(i, j)] = product[(p, q)];
             }
         }
-        Some(schur)
+        Some((
+            schur,
+            TrailingFactor {
+                factor: trailing,
+                index,
+            },
+        ))
     }
 
     /// The cell energies ∫_K Φ(ε(v)) dx and the internal force vector ⟨𝒜ε(v), ε(φ_a e_i)⟩ in
@@ -1226,6 +1250,20 @@ impl<const D: usize> VelocityOperator<D> {
         friction_settings: &FrictionSettings,
         stats: &mut VelocityStats,
     ) -> Result<Vec<f64>> {
+        if let Some(trailing) = &self.trailing {
+            if let Some(solution) = self.solve_model_trailing(
+                trailing,
+                rhs,
+                weights,
+                start,
+                base,
+                multipliers,
+                friction_settings,
+                stats,
+            )? {
+                return Ok(solution);
+            }
+        }
         let solve = |b: &[f64]| -> Result<Vec<f64>> {
             match base {
                 None => self.solver.solve(b),
@@ -1266,6 +1304,81 @@ impl<const D: usize> VelocityOperator<D> {
             solution[dof] = x[i];
         }
         Ok(solution)
+    }
+
+    /// [`Self::solve_model`] with the tangential unknowns eliminated last: one forward and one
+    /// backward triangular solve instead of two solves. With z = L⁻¹ P b in elimination order,
+    /// (H⁻¹ b)_c = L_cc⁻ᵀ z_c, so the condensed right-hand side S (H⁻¹ b)_c is L_cc z_c
+    /// (S = L_cc L_ccᵀ); the friction forces E_c W λ change only the trailing block of z,
+    /// z_c ← z_c − L_cc⁻¹ (W λ)_c; and one backward solve gives H⁻¹ (b − E_c W λ). None if the
+    /// factor is not supernodal (then the two-solve path runs).
+    #[allow(clippy::too_many_arguments)]
+    fn solve_model_trailing(
+        &self,
+        trailing: &TrailingFactor,
+        rhs: &[f64],
+        weights: &[f64],
+        start: &[f64],
+        base: Option<&[f64]>,
+        multipliers: &mut [f64],
+        friction_settings: &FrictionSettings,
+        stats: &mut VelocityStats,
+    ) -> Result<Option<Vec<f64>>> {
+        let Some(mut z) = self.solver.forward_solve(rhs)? else {
+            return Ok(None);
+        };
+        let m = self.tangential.len();
+        let first = z.len() - m;
+        let z_c = Mat::<f64>::from_fn(m, 1, |p, _| z[first + p]);
+        let condensed = &trailing.factor * &z_c;
+        let mut reduced_rhs = vec![0.0; m];
+        for (p, &i) in trailing.index.iter().enumerate() {
+            reduced_rhs[i] = condensed[(p, 0)];
+        }
+        if let Some(v) = base {
+            // a refinement pass: the velocity is v + H⁻¹ r, so S (v_c + (H⁻¹ r)_c)
+            let v_c = Mat::<f64>::from_fn(m, 1, |i, _| v[self.tangential[i]]);
+            let schur_v = &self.schur * &v_c;
+            for (i, value) in reduced_rhs.iter_mut().enumerate() {
+                *value += schur_v[(i, 0)];
+            }
+        }
+        let mut x: Vec<f64> = self.tangential.iter().map(|&dof| start[dof]).collect();
+        let problem = CondensedFriction {
+            matrix: self.schur.as_ref(),
+            rhs: &reduced_rhs,
+            weights,
+            group_size: D - 1,
+        };
+        let friction = problem.solve(&mut x, multipliers, friction_settings)?;
+        stats.friction_iterations += friction.newton_iterations;
+        stats.friction_gradient_iterations += friction.gradient_iterations;
+        let g = D - 1;
+        let mut forces = Mat::<f64>::from_fn(m, 1, |p, _| {
+            let i = trailing.index[p];
+            weights[i / g] * multipliers[i]
+        });
+        faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+            trailing.factor.as_ref(),
+            forces.as_mut(),
+            faer::Par::Seq,
+        );
+        for p in 0..m {
+            z[first + p] -= forces[(p, 0)];
+        }
+        let Some(mut solution) = self.solver.backward_solve(&z)? else {
+            return Ok(None);
+        };
+        if let Some(v) = base {
+            for (value, v) in solution.iter_mut().zip(v) {
+                *value += v;
+            }
+        }
+        // the tangential unknowns are those of the condensed solution (exact zeros at stick nodes)
+        for (i, &dof) in self.tangential.iter().enumerate() {
+            solution[dof] = x[i];
+        }
+        Ok(Some(solution))
     }
 }
 
@@ -1337,6 +1450,7 @@ mod tests {
     fn assert_schur_paths_agree<const D: usize>(operator: &VelocityOperator<D>) {
         let from_factor = operator
             .schur_from_trailing_factor()
+            .map(|(schur, _)| schur)
             .expect("a supernodal factor with the contact unknowns last");
         let from_solves = operator.schur_from_solves().unwrap();
         let m = operator.tangential.len();
@@ -1353,6 +1467,99 @@ mod tests {
             worst <= 1e-10 * scale,
             "Schur complements differ by {worst:e} (scale {scale:e})"
         );
+    }
+
+    /// Both ways of solving the condensed model of (5.1), on random loads and friction bounds
+    /// (stick and slip nodes), plain and as a refinement pass: the one-solve path with the
+    /// trailing factor and the two-solve path.
+    fn assert_one_solve_path_matches_two_solves<const D: usize>(
+        mut operator: VelocityOperator<D>,
+        seed: u64,
+        largest_bound: f64,
+    ) {
+        operator.factorize().unwrap();
+        assert!(
+            operator.trailing.is_some(),
+            "a supernodal factor, contact last"
+        );
+        let mut random = crate::test_random::SeededRandom::new(seed);
+        let n = operator.size();
+        let m = operator.tangential.len();
+        let rhs: Vec<f64> = (0..n).map(|_| random.range(-1.0, 1.0)).collect();
+        let weights: Vec<f64> = (0..m / (D - 1))
+            .map(|_| random.range(0.0, largest_bound))
+            .collect();
+        let base: Vec<f64> = (0..n).map(|_| random.range(-0.1, 0.1)).collect();
+        let settings = FrictionSettings::default();
+        for base in [None, Some(base.as_slice())] {
+            let mut solve = |operator: &VelocityOperator<D>| {
+                let mut multipliers = vec![0.0; m];
+                let mut stats = VelocityStats::default();
+                let velocity = operator
+                    .solve_model(
+                        &rhs,
+                        &weights,
+                        &vec![0.0; n],
+                        base,
+                        &mut multipliers,
+                        &settings,
+                        &mut stats,
+                    )
+                    .unwrap();
+                (velocity, multipliers)
+            };
+            let (one, one_multipliers) = solve(&operator);
+            let trailing = operator.trailing.take();
+            let (two, two_multipliers) = solve(&operator);
+            operator.trailing = trailing;
+            let scale = two.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let worst = one
+                .iter()
+                .zip(&two)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(
+                worst <= 1e-10 * scale,
+                "velocities differ by {worst:e} of {scale:e}"
+            );
+            let stuck = two_multipliers
+                .chunks(D - 1)
+                .zip(&weights)
+                .filter(|(l, w)| {
+                    l.iter().map(|x| x * x).sum::<f64>().sqrt() < 1.0 - 1e-6 || **w == 0.0
+                })
+                .count();
+            assert!(
+                stuck > 0 && stuck < weights.len(),
+                "stick and slip nodes: {stuck}"
+            );
+            for (a, b) in one_multipliers.iter().zip(&two_multipliers) {
+                assert!((a - b).abs() <= 1e-8, "multipliers {a} vs {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn one_solve_velocity_step_matches_two_solves_2d() {
+        let mesh = Mesh::box_mesh(
+            [0.0; 2],
+            [1.0; 2],
+            [96, 48],
+            [[Dirichlet, Neumann], [Contact, Neumann]],
+        )
+        .unwrap();
+        assert_one_solve_path_matches_two_solves(operator(mesh), 7, 0.5);
+    }
+
+    #[test]
+    fn one_solve_velocity_step_matches_two_solves_3d() {
+        let mesh = Mesh::box_mesh(
+            [0.0; 3],
+            [1.0; 3],
+            [6; 3],
+            [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]],
+        )
+        .unwrap();
+        assert_one_solve_path_matches_two_solves(operator(mesh), 11, 20.0);
     }
 
     #[test]
