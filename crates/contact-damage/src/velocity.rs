@@ -1492,7 +1492,7 @@ mod tests {
         let base: Vec<f64> = (0..n).map(|_| random.range(-0.1, 0.1)).collect();
         let settings = FrictionSettings::default();
         for base in [None, Some(base.as_slice())] {
-            let mut solve = |operator: &VelocityOperator<D>| {
+            let solve = |operator: &VelocityOperator<D>| {
                 let mut multipliers = vec![0.0; m];
                 let mut stats = VelocityStats::default();
                 let velocity = operator
