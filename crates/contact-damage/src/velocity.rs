@@ -1278,20 +1278,15 @@ impl<const D: usize> VelocityOperator<D> {
             return Ok(free);
         }
         // condensed rhs r_c = S (H^{-1} b)_c
-        let m = self.tangential.len();
-        let free_c = Mat::<f64>::from_fn(m, 1, |i, _| free[self.tangential[i]]);
-        let reduced_rhs_mat = &self.schur * &free_c;
-        let reduced_rhs: Vec<f64> = (0..m).map(|i| reduced_rhs_mat[(i, 0)]).collect();
-        let mut x: Vec<f64> = self.tangential.iter().map(|&dof| start[dof]).collect();
-        let problem = CondensedFriction {
-            matrix: self.schur.as_ref(),
-            rhs: &reduced_rhs,
+        let reduced_rhs = self.schur_times_tangential(&free);
+        let x = self.condensed_friction(
+            &reduced_rhs,
             weights,
-            group_size: D - 1,
-        };
-        let friction = problem.solve(&mut x, multipliers, friction_settings)?;
-        stats.friction_iterations += friction.newton_iterations;
-        stats.friction_gradient_iterations += friction.gradient_iterations;
+            start,
+            multipliers,
+            friction_settings,
+            stats,
+        )?;
         // y = H^{-1}(b − E_c W λ)
         let mut corrected = rhs.to_vec();
         let g = D - 1;
@@ -1337,22 +1332,18 @@ impl<const D: usize> VelocityOperator<D> {
         }
         if let Some(v) = base {
             // a refinement pass: the velocity is v + H⁻¹ r, so S (v_c + (H⁻¹ r)_c)
-            let v_c = Mat::<f64>::from_fn(m, 1, |i, _| v[self.tangential[i]]);
-            let schur_v = &self.schur * &v_c;
-            for (i, value) in reduced_rhs.iter_mut().enumerate() {
-                *value += schur_v[(i, 0)];
+            for (value, schur_v) in reduced_rhs.iter_mut().zip(self.schur_times_tangential(v)) {
+                *value += schur_v;
             }
         }
-        let mut x: Vec<f64> = self.tangential.iter().map(|&dof| start[dof]).collect();
-        let problem = CondensedFriction {
-            matrix: self.schur.as_ref(),
-            rhs: &reduced_rhs,
+        let x = self.condensed_friction(
+            &reduced_rhs,
             weights,
-            group_size: D - 1,
-        };
-        let friction = problem.solve(&mut x, multipliers, friction_settings)?;
-        stats.friction_iterations += friction.newton_iterations;
-        stats.friction_gradient_iterations += friction.gradient_iterations;
+            start,
+            multipliers,
+            friction_settings,
+            stats,
+        )?;
         let g = D - 1;
         let mut forces = Mat::<f64>::from_fn(m, 1, |p, _| {
             let i = trailing.index[p];
@@ -1379,6 +1370,40 @@ impl<const D: usize> VelocityOperator<D> {
             solution[dof] = x[i];
         }
         Ok(Some(solution))
+    }
+
+    /// S v_c: the Schur complement times the tangential contact part of `v` (in the order of
+    /// `tangential`).
+    fn schur_times_tangential(&self, v: &[f64]) -> Vec<f64> {
+        let m = self.tangential.len();
+        let v_c = Mat::<f64>::from_fn(m, 1, |i, _| v[self.tangential[i]]);
+        let product = &self.schur * &v_c;
+        (0..m).map(|i| product[(i, 0)]).collect()
+    }
+
+    /// The condensed friction problem of (5.1) with right-hand side `reduced_rhs` (in the order
+    /// of `tangential`), started from the tangential part of `start`: the tangential velocities,
+    /// and the multipliers in `multipliers`.
+    fn condensed_friction(
+        &self,
+        reduced_rhs: &[f64],
+        weights: &[f64],
+        start: &[f64],
+        multipliers: &mut [f64],
+        friction_settings: &FrictionSettings,
+        stats: &mut VelocityStats,
+    ) -> Result<Vec<f64>> {
+        let mut x: Vec<f64> = self.tangential.iter().map(|&dof| start[dof]).collect();
+        let problem = CondensedFriction {
+            matrix: self.schur.as_ref(),
+            rhs: reduced_rhs,
+            weights,
+            group_size: D - 1,
+        };
+        let friction = problem.solve(&mut x, multipliers, friction_settings)?;
+        stats.friction_iterations += friction.newton_iterations;
+        stats.friction_gradient_iterations += friction.gradient_iterations;
+        Ok(x)
     }
 }
 
@@ -1445,6 +1470,28 @@ mod tests {
         .unwrap();
         operator.solver.factorize(&operator.matrix).unwrap();
         operator
+    }
+
+    /// The unit square clamped at x = 0, in contact at y = 0.
+    fn square_with_contact(cells: [usize; 2]) -> Mesh<2> {
+        Mesh::box_mesh(
+            [0.0; 2],
+            [1.0; 2],
+            cells,
+            [[Dirichlet, Neumann], [Contact, Neumann]],
+        )
+        .unwrap()
+    }
+
+    /// The unit cube clamped at x = 0, in contact at z = 0.
+    fn cube_with_contact(cells: [usize; 3]) -> Mesh<3> {
+        Mesh::box_mesh(
+            [0.0; 3],
+            [1.0; 3],
+            cells,
+            [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]],
+        )
+        .unwrap()
     }
 
     fn assert_schur_paths_agree<const D: usize>(operator: &VelocityOperator<D>) {
@@ -1540,49 +1587,25 @@ mod tests {
 
     #[test]
     fn one_solve_velocity_step_matches_two_solves_2d() {
-        let mesh = Mesh::box_mesh(
-            [0.0; 2],
-            [1.0; 2],
-            [96, 48],
-            [[Dirichlet, Neumann], [Contact, Neumann]],
-        )
-        .unwrap();
+        let mesh = square_with_contact([96, 48]);
         assert_one_solve_path_matches_two_solves(operator(mesh), 7, 0.5);
     }
 
     #[test]
     fn one_solve_velocity_step_matches_two_solves_3d() {
-        let mesh = Mesh::box_mesh(
-            [0.0; 3],
-            [1.0; 3],
-            [6; 3],
-            [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]],
-        )
-        .unwrap();
+        let mesh = cube_with_contact([6; 3]);
         assert_one_solve_path_matches_two_solves(operator(mesh), 11, 20.0);
     }
 
     #[test]
     fn schur_complement_from_trailing_factor_matches_solves_2d() {
-        let mesh = Mesh::box_mesh(
-            [0.0; 2],
-            [1.0; 2],
-            [128, 128],
-            [[Dirichlet, Neumann], [Contact, Neumann]],
-        )
-        .unwrap();
+        let mesh = square_with_contact([128, 128]);
         assert_schur_paths_agree(&operator(mesh));
     }
 
     #[test]
     fn schur_complement_from_trailing_factor_matches_solves_3d() {
-        let mesh = Mesh::box_mesh(
-            [0.0; 3],
-            [1.0; 3],
-            [8; 3],
-            [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]],
-        )
-        .unwrap();
+        let mesh = cube_with_contact([8; 3]);
         assert_schur_paths_agree(&operator(mesh));
     }
 }
