@@ -2,8 +2,11 @@
 //! `common/moving_damage.rs` (moving source, both bounds active, k the same for every N).
 //!
 //! ```text
-//! cargo run --release -p contact-damage --example damage_iterations -- [N ...]
+//! cargo run --release -p contact-damage --example damage_iterations -- [--active-set] [N ...]
 //! ```
+//!
+//! With `--active-set` the primal–dual active set method (`BoxQpMethod::ActiveSet`) is measured
+//! instead of the default monotone multigrid.
 //!
 //! Prints a markdown table: per N, the largest and the total number of outer (active-set /
 //! projected Newton) iterations and of inner (preconditioned CG) iterations over the steps,
@@ -13,34 +16,44 @@
 #[path = "common/moving_damage.rs"]
 mod moving_damage;
 
+use contact_damage::obstacle::BoxQpMethod;
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let mut sizes: Vec<usize> = std::env::args()
-        .skip(1)
+    let arguments: Vec<String> = std::env::args().skip(1).collect();
+    let method = if arguments.iter().any(|a| a == "--active-set") {
+        BoxQpMethod::ActiveSet
+    } else {
+        BoxQpMethod::MonotoneMultigrid
+    };
+    let mut sizes: Vec<usize> = arguments
+        .iter()
+        .filter(|a| *a != "--active-set")
         .map(|a| a.parse())
         .collect::<Result<_, _>>()?;
     if sizes.is_empty() {
         sizes = vec![64, 128, 256, 512];
     }
+    println!("method: {method:?}");
     println!(
-        "| N | unknowns | outer it. max / total | inner CG it. max / total | factorizations | fallback steps | max KKT | β = 0 / β = 1 nodes (last step) | time per step |"
+        "| N | unknowns | outer it. max / total | inner CG it. max / total | factorizations | coarse updates | fallback steps | max KKT | β = 0 / β = 1 nodes (last step) | time per step |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     for cells in sizes {
         let started = Instant::now();
-        let stats = moving_damage::run(cells)?;
+        let stats = moving_damage::run(cells, method)?;
         let per_step = started.elapsed().as_secs_f64() / stats.len() as f64;
         let outer_max = stats.iter().map(|s| s.iterations).max().unwrap_or(0);
         let outer_total: usize = stats.iter().map(|s| s.iterations).sum();
         let inner_max = stats.iter().map(|s| s.inner_iterations).max().unwrap_or(0);
         let inner_total: usize = stats.iter().map(|s| s.inner_iterations).sum();
         let factorizations: usize = stats.iter().map(|s| s.factorizations).sum();
+        let coarse: usize = stats.iter().map(|s| s.coarse_updates).sum();
         let fallback = stats.iter().filter(|s| s.used_fallback).count();
         let kkt = stats.iter().map(|s| s.kkt_residual).fold(0.0, f64::max);
         let last = stats.last().expect("steps");
         println!(
-            "| {cells} | {} | {outer_max} / {outer_total} | {inner_max} / {inner_total} | {factorizations} | {fallback} | {kkt:.1e} | {} / {} | {:.3} s |",
+            "| {cells} | {} | {outer_max} / {outer_total} | {inner_max} / {inner_total} | {factorizations} | {coarse} | {fallback} | {kkt:.1e} | {} / {} | {:.3} s |",
             (cells + 1) * (cells + 1),
             last.lower_active,
             last.upper_active,

@@ -7,11 +7,13 @@
 //! with the **consistent** mass matrix M: it is the L² inner product ⟨·,·⟩ of (5.2) itself, so no
 //! variational crime is added, and it is the only choice for P2 (row-sum lumping of P2 on
 //! simplices gives zero or negative vertex masses). M/k + κK is then SPD but not an M-matrix
-//! (positive off-diagonal mass entries), so the solver is the globally convergent active-set
-//! method of [`crate::obstacle`]. M/k + κK does not change during a run: it is factorized once
-//! (in the first step) and the reduced systems of every step are solved by conjugate gradients
-//! preconditioned with that factor (see [`crate::obstacle`], "Linear algebra"). For l = 2, 𝒦^h is the set of P2 fields whose nodal values lie in
-//! [0, 1] (a field may leave [0, 1] slightly between nodes).
+//! (positive off-diagonal mass entries), so the solver is one of the globally convergent
+//! methods of [`crate::obstacle`]: by default the truncated nonsmooth Newton multigrid on an
+//! algebraic hierarchy of M/k + κK, built once per run (no factorization); optionally the
+//! active set method, which factorizes M/k + κK once (in the first step) and solves the reduced
+//! systems of every step by conjugate gradients preconditioned with that factor. For l = 2,
+//! 𝒦^h is the set of P2 fields whose nodal values lie in [0, 1] (a field may leave [0, 1]
+//! slightly between nodes).
 
 use crate::assembly::damage_element_matrix;
 use crate::linalg::{multiply, SparsityPattern};

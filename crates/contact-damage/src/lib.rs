@@ -70,6 +70,7 @@ pub mod linalg;
 pub mod loads;
 pub mod memory;
 pub mod mesh;
+mod multigrid;
 pub mod obstacle;
 pub mod ordering;
 pub mod quadrature;

@@ -1,22 +1,52 @@
 //! Work of the damage step (5.2) on the fixed moving-damage case of
-//! `examples/common/moving_damage.rs`: one numeric factorization per run, an exact KKT
-//! certificate every step, and bounded outer (active-set) and inner (preconditioned CG)
-//! iteration counts for N = 16, 32, 64. The counts for N up to 512 are in the README
-//! (`cargo run --release -p contact-damage --example damage_iterations`).
+//! `examples/common/moving_damage.rs`, for both box QP methods: an exact KKT certificate every
+//! step and bounded outer and inner (preconditioned CG) iteration counts for N = 16, 32, 64;
+//! one numeric factorization per run for the active set method, none for the monotone
+//! multigrid. The counts for N up to 512 are in the README
+//! (`cargo run --release -p contact-damage --example damage_iterations [-- --active-set]`).
+
+use contact_damage::obstacle::BoxQpMethod;
 
 #[path = "../examples/common/moving_damage.rs"]
 mod moving_damage;
 
 /// Largest number of active-set iterations of one step allowed for N ≤ 64 (measured: 3, 3, 5).
+/// The bounds of this file are the measured maxima plus a margin of about half, enough for
+/// changes of rounding, small enough to catch an iteration that degrades.
 const MAX_OUTER: usize = 6;
 /// Largest number of CG iterations (solves with the factor) of one step for N ≤ 64
 /// (measured: 5, 4, 8).
 const MAX_INNER: usize = 12;
 
+/// Largest number of monotone multigrid iterations of one step for N ≤ 64 (measured: 4, 3, 6).
+const MAX_OUTER_MULTIGRID: usize = 9;
+/// Largest number of CG iterations (V-cycles) of one multigrid step for N ≤ 64
+/// (measured: 3, 3, 6).
+const MAX_INNER_MULTIGRID: usize = 9;
+
+#[test]
+fn multigrid_damage_step_needs_no_factorization_and_its_iteration_counts_stay_bounded() {
+    for cells in [16, 32, 64] {
+        let stats = moving_damage::run(cells, BoxQpMethod::MonotoneMultigrid).unwrap();
+        assert_eq!(stats.len(), moving_damage::STEPS);
+        for (n, s) in stats.iter().enumerate() {
+            let step = n + 1;
+            assert_eq!(s.factorizations, 0, "N = {cells}, step {step}: {s:?}");
+            assert!(s.kkt_residual <= 1e-10, "N = {cells}, step {step}: {s:?}");
+            assert!(
+                s.iterations <= MAX_OUTER_MULTIGRID && s.inner_iterations <= MAX_INNER_MULTIGRID,
+                "N = {cells}, step {step}: {s:?}"
+            );
+        }
+        let last = stats.last().unwrap();
+        assert!(last.lower_active > 0 && last.upper_active > 0, "{last:?}");
+    }
+}
+
 #[test]
 fn damage_step_factorizes_once_and_its_iteration_counts_stay_bounded() {
     for cells in [16, 32, 64] {
-        let stats = moving_damage::run(cells).unwrap();
+        let stats = moving_damage::run(cells, BoxQpMethod::ActiveSet).unwrap();
         assert_eq!(stats.len(), moving_damage::STEPS);
         let factorizations: usize = stats.iter().map(|s| s.factorizations).sum();
         assert_eq!(factorizations, 1, "N = {cells}: {stats:?}");

@@ -48,6 +48,9 @@
 //! friction_max_gradient = 20000
 //! damage_tolerance = 1e-12        # scaled KKT residual of the damage step (5.2)
 //! damage_max_iterations = 100
+//! damage_method = "multigrid"     # box QP of (5.2): "multigrid" (truncated nonsmooth Newton
+//!                                 # multigrid, no factorization) or "active-set" (primal-dual
+//!                                 # active set with one Cholesky factor)
 //! ```
 //!
 //! Tolerances must lie in (0, 1e-6]: a looser solve would compete with the discretization
@@ -64,6 +67,7 @@
 use crate::watch::LoadWatch;
 use contact_damage::gmsh::{read_msh, GroupRef, PhysicalMap};
 use contact_damage::mesh::{BoundaryPart, Mesh};
+use contact_damage::obstacle::BoxQpMethod;
 use contact_damage::scheme::{
     Data, Model, PointScalarField, PrescribedDisplacement, Problem, SchemeSettings,
 };
@@ -263,8 +267,11 @@ pub struct SolverFile {
     pub friction_max_gradient: Option<usize>,
     /// Scaled KKT residual at which the damage step (5.2) stops (default 1e-12).
     pub damage_tolerance: Option<f64>,
-    /// Largest number of active-set and projected Newton steps of the damage step (default 100).
+    /// Largest number of iterations of the damage step (default 100).
     pub damage_max_iterations: Option<usize>,
+    /// Algorithm of the damage step: `"multigrid"` (default) or `"active-set"`
+    /// ([`contact_damage::obstacle::BoxQpMethod`]).
+    pub damage_method: Option<String>,
 }
 
 /// Largest tolerance accepted in `[solver]`: every variational inequality is solved to a
@@ -335,6 +342,19 @@ impl SolverFile {
             self.damage_max_iterations,
             &mut settings.damage.max_iterations,
         )?;
+        if let Some(method) = &self.damage_method {
+            settings.damage.method = match method.as_str() {
+                "multigrid" => BoxQpMethod::MonotoneMultigrid,
+                "active-set" => BoxQpMethod::ActiveSet,
+                other => {
+                    return Err(problem_error(
+                        origin,
+                        "solver.damage_method",
+                        format!("must be \"multigrid\" or \"active-set\", got \"{other}\""),
+                    ))
+                }
+            };
+        }
         Ok(settings)
     }
 }

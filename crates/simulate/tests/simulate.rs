@@ -599,6 +599,11 @@ fn bad_problem_files_name_the_key() {
         ),
         (
             "[output]",
+            "[solver]\ndamage_method = \"pdas\"\n[output]",
+            "key `solver.damage_method`: must be \"multigrid\" or \"active-set\", got \"pdas\"",
+        ),
+        (
+            "[output]",
             "[solver]\nfriction_tolerance = -1e-12\n[output]",
             "key `solver.friction_tolerance`",
         ),
@@ -774,7 +779,7 @@ fn pictures_show_damage_on_every_cell_and_the_contact_history_with_legends() {
 fn solver_settings_are_read_from_the_problem_file() {
     let text = EXAMPLE_2D.replace(
         "[output]",
-        "[solver]\nvelocity_tolerance = 1e-11\nmax_newton = 7\nfriction_tolerance = 1e-13\nfriction_max_newton = 30\nfriction_max_gradient = 500\ndamage_tolerance = 1e-13\ndamage_max_iterations = 40\n[output]",
+        "[solver]\nvelocity_tolerance = 1e-11\nmax_newton = 7\nfriction_tolerance = 1e-13\nfriction_max_newton = 30\nfriction_max_gradient = 500\ndamage_tolerance = 1e-13\ndamage_max_iterations = 40\ndamage_method = \"active-set\"\n[output]",
     );
     let file = simulate::problem::parse_problem_file(&text, "solver.toml").unwrap();
     let setup = ProblemSetup::<2>::new(file, Path::new("solver.toml")).unwrap();
@@ -786,6 +791,10 @@ fn solver_settings_are_read_from_the_problem_file() {
     assert_eq!(settings.velocity.friction.max_gradient, 500);
     assert_eq!(settings.damage.tolerance, 1e-13);
     assert_eq!(settings.damage.max_iterations, 40);
+    assert_eq!(
+        settings.damage.method,
+        contact_damage::obstacle::BoxQpMethod::ActiveSet
+    );
     // missing entries keep the defaults
     let file = simulate::problem::parse_problem_file(EXAMPLE_2D, "example.toml").unwrap();
     let setup = ProblemSetup::<2>::new(file, Path::new("example.toml")).unwrap();

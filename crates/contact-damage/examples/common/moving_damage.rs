@@ -8,7 +8,7 @@
 use contact_damage::damage::{assemble_damage_matrix, DamageOperator};
 use contact_damage::linalg::multiply;
 use contact_damage::mesh::{BoundaryPart, Mesh};
-use contact_damage::obstacle::{BoxQpSettings, BoxQpStats};
+use contact_damage::obstacle::{BoxQpMethod, BoxQpSettings, BoxQpStats};
 use contact_damage::space::LagrangeSpace;
 use std::sync::Arc;
 
@@ -32,8 +32,9 @@ fn centre(t: f64) -> [f64; 2] {
     [0.3 + 1.6 * t, 0.5]
 }
 
-/// Runs the case on an N × N mesh; returns the statistics of every step.
-pub fn run(cells: usize) -> contact_damage::Result<Vec<BoxQpStats>> {
+/// Runs the case on an N × N mesh with the box QP method `method`; returns the statistics of
+/// every step.
+pub fn run(cells: usize, method: BoxQpMethod) -> contact_damage::Result<Vec<BoxQpStats>> {
     use BoundaryPart::{Dirichlet, Neumann};
     // the sides only matter for the velocity step, which is not solved here
     let sides = [[Dirichlet, Neumann], [Neumann, Neumann]];
@@ -41,7 +42,11 @@ pub fn run(cells: usize) -> contact_damage::Result<Vec<BoxQpStats>> {
     let space = Arc::new(LagrangeSpace::new(Arc::new(mesh), 1)?);
     let mass = assemble_damage_matrix(&space, 1.0, 0.0)?;
     let k = FINAL_TIME / STEPS as f64;
-    let mut operator = DamageOperator::new(space.clone(), DIFFUSION, k, BoxQpSettings::default())?;
+    let settings = BoxQpSettings {
+        method,
+        ..BoxQpSettings::default()
+    };
+    let mut operator = DamageOperator::new(space.clone(), DIFFUSION, k, settings)?;
     let mut damage: Vec<f64> = space
         .nodes()
         .iter()

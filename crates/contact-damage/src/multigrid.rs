@@ -1,0 +1,887 @@
+//! Algebraic multigrid hierarchy by smoothed aggregation, with **truncation**: the linear
+//! corrections of the monotone multigrid of [`crate::obstacle`] (the damage step (5.2)).
+//!
+//! # Construction (once per matrix)
+//! From a sparse SPD matrix `A₀ = A` the hierarchy is built by smoothed aggregation
+//! (Vaněk, Mandel & Brezina 1996), with the constants as near-kernel:
+//! 1. **Strength of connection**: `j` is a strong neighbour of `i` if
+//!    `|a_ij| ≥ θ √(a_ii a_jj)`, `θ = 0.08`. The absolute value matters: the consistent mass
+//!    matrix in `M/k + κK` has positive off-diagonal entries.
+//! 2. **Aggregation** (greedy, three passes): a node whose strong neighbours are all
+//!    unaggregated starts an aggregate with them; the remaining nodes join the aggregate of
+//!    their strongest aggregated neighbour; what is still left forms aggregates with its
+//!    unaggregated strong neighbours.
+//! 3. **Prolongation**: the tentative `P̂_{iJ} = 1` if `i` lies in aggregate `J`, smoothed by
+//!    one damped Jacobi step `P = (I − ω D⁻¹A) P̂`, `ω = 4/(3ρ)` with the Gershgorin bound
+//!    `ρ ≥ ρ(D⁻¹A)`.
+//! 4. **Galerkin** coarse matrices `A_{l+1} = P_lᵀ A_l P_l`, until at most
+//!    [`COARSEST_SIZE`] unknowns remain; the coarsest level is solved by a dense Cholesky
+//!    factor. If the coarsening stalls on a larger level (no strong connections left: the
+//!    matrix is dominated by its diagonal), that level is the coarsest one and is solved by
+//!    [`COARSEST_SWEEPS`] symmetric Gauss–Seidel sweeps instead.
+//!
+//! A truncated coarse matrix is only positive *semi*definite (two coarse functions may
+//! coincide on the free set); the dense factor then drops the pivots that vanish up to
+//! rounding, and the dropped directions get no coarse correction.
+//!
+//! The symbolic structure of every coarse matrix (its pattern) is computed once.
+//!
+//! # Truncation (once per active set)
+//! The linear correction of the monotone multigrid solves `A_FF d_F = r_F` on the free set
+//! `F` (the indices not on a bound) with `d = 0` on the rest. Following Kornhuber (1994) and
+//! Gräser & Kornhuber (2009), the hierarchy is **truncated**: the fine-level rows of `P₀`
+//! belonging to fixed indices are dropped (`P₀ᶠ = D_F P₀`), and the coarse matrices are
+//! recomputed with the same patterns, `A₁ = P₀ᶠᵀ A P₀ᶠ = P₀ᵀ Ã₀ P₀` with
+//! `Ã₀ = D_F A D_F` (the fixed rows and columns zeroed), `A_{l+1} = P_lᵀ A_l P_l` — so every
+//! coarse correction is a Galerkin correction of the reduced operator `A_FF` and the V-cycle
+//! is an SPD preconditioner for `A_FF` whatever `F`. A coarse unknown whose support lies in
+//! the fixed set has a zero row: it is skipped by the smoothers and the coarse solve.
+//! The products `Ã_l P_l` are kept: a truncation that changes the status of a few indices
+//! recomputes only the rows of `Ã_l P_l` and `A_{l+1}` that contain them.
+//!
+//! # Cycle
+//! A symmetric V(1,1)-cycle: forward Gauss–Seidel before the coarse correction, backward
+//! after it, exact solve on the coarsest level; with a zero start it is a symmetric positive
+//! definite operator on the free indices, used as the preconditioner of conjugate gradients.
+//!
+//! # References
+//! - P. Vaněk, J. Mandel, M. Brezina, *Algebraic multigrid by smoothed aggregation for second
+//!   and fourth order elliptic problems*, Computing 56 (1996) 179–196.
+//! - R. Kornhuber, *Monotone multigrid methods for elliptic variational inequalities I*,
+//!   Numer. Math. 69 (1994) 167–184.
+//! - C. Gräser, R. Kornhuber, *Multigrid methods for obstacle problems*, J. Comput. Math. 27
+//!   (2009) 1–44.
+
+use faer::sparse::SparseColMat;
+
+/// Largest number of unknowns solved directly on the coarsest level.
+pub(crate) const COARSEST_SIZE: usize = 256;
+/// Symmetric Gauss–Seidel sweeps on a coarsest level too large for the dense factor.
+pub(crate) const COARSEST_SWEEPS: usize = 4;
+/// Size below which a pivot of the dense coarsest factor counts as zero, relative to the
+/// largest diagonal entry (the scale of the rounding errors of the factorization).
+const PIVOT_DROP: f64 = 1e-12;
+/// Size of a negative pivot of the dense coarsest factor, relative to the largest diagonal
+/// entry, that proves the matrix indefinite (smaller negative pivots are rounding of a
+/// semidefinite matrix, dropped).
+const INDEFINITE_PIVOT: f64 = 1e-8;
+/// Strength-of-connection threshold θ.
+const STRENGTH: f64 = 0.08;
+/// Coarsening stops when a level keeps more than this fraction of the unknowns.
+const STALLED_COARSENING: f64 = 0.8;
+/// Most levels built.
+const MAX_LEVELS: usize = 25;
+/// Marker of an unaggregated node.
+const UNASSIGNED: usize = usize::MAX;
+
+/// Compressed sparse rows (for a symmetric matrix: also its compressed columns).
+#[derive(Debug, Clone)]
+pub(crate) struct Csr {
+    cols: usize,
+    offsets: Vec<usize>,
+    indices: Vec<usize>,
+    values: Vec<f64>,
+}
+
+impl Csr {
+    /// The rows of a symmetric matrix stored by columns with both triangles.
+    pub(crate) fn from_symmetric(matrix: &SparseColMat<usize, f64>) -> Self {
+        let symbolic = matrix.symbolic();
+        let n = matrix.ncols();
+        let mut offsets = Vec::with_capacity(n + 1);
+        let mut indices = Vec::with_capacity(symbolic.compute_nnz());
+        let mut values = Vec::with_capacity(symbolic.compute_nnz());
+        offsets.push(0);
+        for column in 0..n {
+            indices.extend_from_slice(symbolic.row_idx_of_col_raw(column));
+            values.extend_from_slice(matrix.val_of_col(column));
+            offsets.push(indices.len());
+        }
+        Self {
+            cols: matrix.nrows(),
+            offsets,
+            indices,
+            values,
+        }
+    }
+
+    fn rows(&self) -> usize {
+        self.offsets.len() - 1
+    }
+
+    fn row(&self, i: usize) -> (&[usize], &[f64]) {
+        let range = self.offsets[i]..self.offsets[i + 1];
+        (&self.indices[range.clone()], &self.values[range])
+    }
+
+    /// `(A x)_i`.
+    pub(crate) fn row_product(&self, i: usize, x: &[f64]) -> f64 {
+        let (columns, values) = self.row(i);
+        columns.iter().zip(values).map(|(&j, a)| a * x[j]).sum()
+    }
+
+    /// `y = A x`.
+    pub(crate) fn multiply(&self, x: &[f64], y: &mut [f64]) {
+        for (i, target) in y.iter_mut().enumerate() {
+            let (columns, values) = self.row(i);
+            *target = columns.iter().zip(values).map(|(&j, a)| a * x[j]).sum();
+        }
+    }
+
+    /// The transpose.
+    fn transpose(&self) -> Self {
+        let mut counts = vec![0usize; self.cols + 1];
+        for &j in &self.indices {
+            counts[j + 1] += 1;
+        }
+        for j in 0..self.cols {
+            counts[j + 1] += counts[j];
+        }
+        let offsets = counts.clone();
+        let mut next = counts;
+        let mut indices = vec![0; self.indices.len()];
+        let mut values = vec![0.0; self.values.len()];
+        for i in 0..self.rows() {
+            let (columns, entries) = self.row(i);
+            for (&j, &value) in columns.iter().zip(entries) {
+                indices[next[j]] = i;
+                values[next[j]] = value;
+                next[j] += 1;
+            }
+        }
+        Self {
+            cols: self.rows(),
+            offsets,
+            indices,
+            values,
+        }
+    }
+
+    /// Diagonal entries (zero where the pattern has none).
+    fn diagonal(&self) -> Vec<f64> {
+        (0..self.rows()).map(|i| self.diagonal_entry(i)).collect()
+    }
+
+    /// `a_ii` (zero if the pattern has no diagonal entry in row `i`; columns sorted).
+    fn diagonal_entry(&self, i: usize) -> f64 {
+        let (columns, values) = self.row(i);
+        columns
+            .binary_search(&i)
+            .map_or(0.0, |position| values[position])
+    }
+}
+
+/// One level: its (truncated) matrix, the prolongation from the next coarser level and the
+/// product of the two.
+#[derive(Debug, Clone)]
+struct Level {
+    /// `Ã_l`: on the finest level `A` with the rows and columns of the fixed indices zeroed,
+    /// on the coarser ones the Galerkin matrix `R_{l−1} Ã_{l−1} P_{l−1}`.
+    matrix: Csr,
+    diagonal: Vec<f64>,
+    /// `P_l` (rows: this level, columns: the next coarser one), its transpose `R_l = P_lᵀ`
+    /// and the product `Ã_l P_l`.
+    transfer: Option<Transfer>,
+    /// Marks of the rows changed by a truncation (all `false` between truncations).
+    touched: Vec<bool>,
+    /// Work vectors of the cycle.
+    solution: Vec<f64>,
+    rhs: Vec<f64>,
+    residual: Vec<f64>,
+}
+
+/// Grid transfer of a level to the next coarser one.
+#[derive(Debug, Clone)]
+struct Transfer {
+    prolongation: Csr,
+    restriction: Csr,
+    /// `Ã_l P_l`, kept so that a truncation recomputes only the rows it changes.
+    product: Csr,
+}
+
+/// The truncated smoothed-aggregation hierarchy of a sparse SPD matrix.
+#[derive(Debug, Clone)]
+pub(crate) struct Hierarchy {
+    levels: Vec<Level>,
+    /// The untruncated fine matrix `A` and its diagonal.
+    fine: Csr,
+    fine_diagonal: Vec<f64>,
+    /// Fixed fine indices of the current truncation.
+    fixed: Vec<bool>,
+    /// Largest size of the dense coarsest factor.
+    coarsest_size: usize,
+    /// Dense factor of the coarsest matrix, if it has at most `coarsest_size` unknowns.
+    coarsest_factor: Option<DenseFactor>,
+    /// Scratch of the sparse products: position of a column in the current row.
+    marker: Vec<usize>,
+}
+
+impl Hierarchy {
+    /// Builds the hierarchy of `matrix` (symmetric, both triangles stored, positive diagonal),
+    /// untruncated.
+    pub(crate) fn new(matrix: &Csr) -> Self {
+        Self::with_coarsest_size(matrix, COARSEST_SIZE)
+    }
+
+    /// As [`Hierarchy::new`], coarsening down to at most `coarsest_size` unknowns (tests use
+    /// small sizes to reach several levels on small matrices).
+    pub(crate) fn with_coarsest_size(matrix: &Csr, coarsest_size: usize) -> Self {
+        let mut levels = Vec::new();
+        let mut current = matrix.clone();
+        let mut marker = Vec::new();
+        loop {
+            let diagonal = current.diagonal();
+            let n = current.rows();
+            let done = n <= coarsest_size || levels.len() + 1 >= MAX_LEVELS;
+            let aggregates =
+                (!done)
+                    .then(|| aggregate(&current, &diagonal))
+                    .filter(|&(_, coarse)| {
+                        coarse > 0 && coarse as f64 <= STALLED_COARSENING * n as f64
+                    });
+            let mut next = None;
+            let transfer = aggregates.map(|(aggregates, coarse)| {
+                let (prolongation, restriction) =
+                    smoothed_prolongation(&current, &diagonal, &aggregates, coarse);
+                marker.resize(marker.len().max(coarse), usize::MAX);
+                let all: Vec<usize> = (0..n).collect();
+                let mut product = product_pattern(&current, &prolongation);
+                product_rows(&current, &prolongation, &mut product, &mut marker, &all);
+                let mut galerkin = product_pattern(&restriction, &product);
+                let all: Vec<usize> = (0..coarse).collect();
+                product_rows(&restriction, &product, &mut galerkin, &mut marker, &all);
+                next = Some(galerkin);
+                Transfer {
+                    prolongation,
+                    restriction,
+                    product,
+                }
+            });
+            levels.push(Level {
+                touched: vec![false; n],
+                solution: vec![0.0; n],
+                rhs: vec![0.0; n],
+                residual: vec![0.0; n],
+                diagonal,
+                matrix: current,
+                transfer,
+            });
+            match next {
+                Some(coarse) => current = coarse,
+                None => break,
+            }
+        }
+        let mut hierarchy = Self {
+            coarsest_size,
+            fine: matrix.clone(),
+            fine_diagonal: matrix.diagonal(),
+            fixed: vec![false; matrix.rows()],
+            levels,
+            coarsest_factor: None,
+            marker,
+        };
+        hierarchy.factor_coarsest();
+        hierarchy
+    }
+
+    /// Unknowns per level, finest first.
+    pub(crate) fn sizes(&self) -> Vec<usize> {
+        self.levels
+            .iter()
+            .map(|level| level.matrix.rows())
+            .collect()
+    }
+
+    /// Truncates the hierarchy to the free set `{i : !fixed[i]}` (see the module
+    /// documentation); a no-op if `fixed` is the current truncation. Only the rows that the
+    /// change of truncation affects are recomputed, each from scratch, so the result does not
+    /// depend on earlier truncations. Returns whether anything changed.
+    pub(crate) fn truncate(&mut self, fixed: &[bool]) -> bool {
+        // Fine level: the rows of Ã₀ that change are those of the indices whose status
+        // changes and of their neighbours.
+        let mut rows = Vec::new();
+        {
+            let level = &mut self.levels[0];
+            for (c, (now, before)) in fixed.iter().zip(&self.fixed).enumerate() {
+                if now == before {
+                    continue;
+                }
+                for &i in std::iter::once(&c).chain(self.fine.row(c).0) {
+                    if !level.touched[i] {
+                        level.touched[i] = true;
+                        rows.push(i);
+                    }
+                }
+            }
+            if rows.is_empty() {
+                return false;
+            }
+            self.fixed.copy_from_slice(fixed);
+            for &i in &rows {
+                level.touched[i] = false;
+                for position in level.matrix.offsets[i]..level.matrix.offsets[i + 1] {
+                    let j = level.matrix.indices[position];
+                    level.matrix.values[position] = if fixed[i] || fixed[j] {
+                        0.0
+                    } else {
+                        self.fine.values[position]
+                    };
+                }
+                level.diagonal[i] = if fixed[i] { 0.0 } else { self.fine_diagonal[i] };
+            }
+        }
+        // Level by level: the changed rows of Ã_l change the same rows of Ã_l P_l, and these
+        // the rows I of R_l Ã_l P_l with R_{Ii} ≠ 0.
+        for l in 0..self.levels.len() - 1 {
+            let (fine_levels, coarse_levels) = self.levels.split_at_mut(l + 1);
+            let level = &mut fine_levels[l];
+            let coarse = &mut coarse_levels[0];
+            let transfer = level.transfer.as_mut().expect("a finer level has P");
+            product_rows(
+                &level.matrix,
+                &transfer.prolongation,
+                &mut transfer.product,
+                &mut self.marker,
+                &rows,
+            );
+            let mut coarse_rows = Vec::new();
+            for &i in &rows {
+                for &row in transfer.prolongation.row(i).0 {
+                    if !coarse.touched[row] {
+                        coarse.touched[row] = true;
+                        coarse_rows.push(row);
+                    }
+                }
+            }
+            product_rows(
+                &transfer.restriction,
+                &transfer.product,
+                &mut coarse.matrix,
+                &mut self.marker,
+                &coarse_rows,
+            );
+            for &row in &coarse_rows {
+                coarse.touched[row] = false;
+                coarse.diagonal[row] = coarse.matrix.diagonal_entry(row);
+            }
+            rows = coarse_rows;
+        }
+        if !rows.is_empty() {
+            self.factor_coarsest();
+        }
+        true
+    }
+
+    /// Dense factor of the coarsest matrix (if it is small enough).
+    fn factor_coarsest(&mut self) {
+        let level = self.levels.last().expect("at least one level");
+        self.coarsest_factor = (level.matrix.rows() <= self.coarsest_size)
+            .then(|| DenseFactor::new(&level.matrix, &level.diagonal));
+    }
+
+    /// Whether the coarsest dense factor met a clearly negative pivot: the matrix is not
+    /// positive semidefinite on the free set, so `A` is not positive definite.
+    pub(crate) fn is_indefinite(&self) -> bool {
+        self.coarsest_factor
+            .as_ref()
+            .is_some_and(|factor| factor.indefinite)
+    }
+
+    /// `z = B r`: one symmetric V-cycle for the truncated fine matrix from a zero start; `r`
+    /// must vanish on the fixed indices, and so does `z`.
+    pub(crate) fn cycle(&mut self, residual: &[f64], z: &mut [f64]) {
+        self.levels[0].rhs.copy_from_slice(residual);
+        self.cycle_level(0);
+        z.copy_from_slice(&self.levels[0].solution);
+    }
+
+    fn cycle_level(&mut self, l: usize) {
+        let last = self.levels.len() - 1;
+        if l == last {
+            let level = &mut self.levels[l];
+            match &self.coarsest_factor {
+                Some(factor) => factor.solve(&level.rhs, &mut level.solution),
+                None => {
+                    level.solution.fill(0.0);
+                    for _ in 0..COARSEST_SWEEPS {
+                        gauss_seidel(
+                            &level.matrix,
+                            &level.diagonal,
+                            &level.rhs,
+                            &mut level.solution,
+                            false,
+                        );
+                        gauss_seidel(
+                            &level.matrix,
+                            &level.diagonal,
+                            &level.rhs,
+                            &mut level.solution,
+                            true,
+                        );
+                    }
+                }
+            }
+            return;
+        }
+        {
+            let level = &mut self.levels[l];
+            level.solution.fill(0.0);
+            gauss_seidel(
+                &level.matrix,
+                &level.diagonal,
+                &level.rhs,
+                &mut level.solution,
+                false,
+            );
+            level.matrix.multiply(&level.solution, &mut level.residual);
+            for i in 0..level.residual.len() {
+                level.residual[i] = if level.diagonal[i] > 0.0 {
+                    level.rhs[i] - level.residual[i]
+                } else {
+                    0.0
+                };
+            }
+        }
+        {
+            let (fine_levels, coarse_levels) = self.levels.split_at_mut(l + 1);
+            let level = &fine_levels[l];
+            let transfer = level.transfer.as_ref().expect("not the coarsest");
+            transfer
+                .restriction
+                .multiply(&level.residual, &mut coarse_levels[0].rhs);
+        }
+        self.cycle_level(l + 1);
+        {
+            let (fine_levels, coarse_levels) = self.levels.split_at_mut(l + 1);
+            let level = &mut fine_levels[l];
+            let coarse = &coarse_levels[0];
+            let prolongation = &level
+                .transfer
+                .as_ref()
+                .expect("not the coarsest")
+                .prolongation;
+            for i in 0..level.solution.len() {
+                if level.diagonal[i] > 0.0 {
+                    let (columns, values) = prolongation.row(i);
+                    level.solution[i] += columns
+                        .iter()
+                        .zip(values)
+                        .map(|(&j, p)| p * coarse.solution[j])
+                        .sum::<f64>();
+                }
+            }
+            gauss_seidel(
+                &level.matrix,
+                &level.diagonal,
+                &level.rhs,
+                &mut level.solution,
+                true,
+            );
+        }
+    }
+}
+
+/// Dense Cholesky factor `L Lᵀ` of a symmetric positive semidefinite matrix: a pivot that
+/// vanishes up to rounding (at most [`PIVOT_DROP`] times the largest diagonal entry; in
+/// particular the rows of unknowns truncated away) is dropped, and its unknown is set to zero
+/// by the solve.
+#[derive(Debug, Clone)]
+struct DenseFactor {
+    size: usize,
+    /// Row-major lower triangle of `L` (dropped columns zero).
+    lower: Vec<f64>,
+    dropped: Vec<bool>,
+    /// A pivot below `−INDEFINITE_PIVOT · max_j a_jj` was met.
+    indefinite: bool,
+}
+
+impl DenseFactor {
+    #[allow(clippy::needless_range_loop)] // dense triangular kernels
+    fn new(matrix: &Csr, diagonal: &[f64]) -> Self {
+        let n = matrix.rows();
+        let mut lower = vec![0.0; n * n];
+        for i in 0..n {
+            let (columns, values) = matrix.row(i);
+            for (&j, &value) in columns.iter().zip(values) {
+                if j <= i {
+                    lower[i * n + j] = value;
+                }
+            }
+        }
+        let mut dropped = vec![false; n];
+        let mut indefinite = false;
+        // Rounding in the Galerkin sums (which cancel: mass and stiffness couplings have
+        // opposite signs) is relative to the largest entries, not to a row's own diagonal.
+        let scale = diagonal.iter().fold(0.0_f64, |acc, d| acc.max(d.abs()));
+        for j in 0..n {
+            let mut pivot = lower[j * n + j];
+            for k in 0..j {
+                pivot -= lower[j * n + k] * lower[j * n + k];
+            }
+            indefinite |= pivot < -INDEFINITE_PIVOT * scale;
+            if !(diagonal[j] > 0.0 && pivot > PIVOT_DROP * scale) {
+                dropped[j] = true;
+                for i in j..n {
+                    lower[i * n + j] = 0.0;
+                }
+                continue;
+            }
+            let pivot = pivot.sqrt();
+            lower[j * n + j] = pivot;
+            for i in j + 1..n {
+                let mut value = lower[i * n + j];
+                for k in 0..j {
+                    value -= lower[i * n + k] * lower[j * n + k];
+                }
+                lower[i * n + j] = value / pivot;
+            }
+        }
+        Self {
+            size: n,
+            lower,
+            dropped,
+            indefinite,
+        }
+    }
+
+    /// `x = L⁻ᵀ L⁻¹ b` on the kept unknowns, zero on the dropped ones.
+    #[allow(clippy::needless_range_loop)] // dense triangular kernels
+    fn solve(&self, rhs: &[f64], x: &mut [f64]) {
+        let n = self.size;
+        for i in 0..n {
+            if self.dropped[i] {
+                x[i] = 0.0;
+                continue;
+            }
+            let mut value = rhs[i];
+            for k in 0..i {
+                value -= self.lower[i * n + k] * x[k];
+            }
+            x[i] = value / self.lower[i * n + i];
+        }
+        for i in (0..n).rev() {
+            if self.dropped[i] {
+                continue;
+            }
+            let mut value = x[i];
+            for k in i + 1..n {
+                value -= self.lower[k * n + i] * x[k];
+            }
+            x[i] = value / self.lower[i * n + i];
+        }
+    }
+}
+
+/// One Gauss–Seidel sweep for `A z = r` (forward or backward) on the rows with a positive
+/// diagonal (the others are truncated away and stay zero).
+fn gauss_seidel(matrix: &Csr, diagonal: &[f64], rhs: &[f64], z: &mut [f64], backward: bool) {
+    let n = z.len();
+    for step in 0..n {
+        let i = if backward { n - 1 - step } else { step };
+        if diagonal[i] <= 0.0 {
+            continue;
+        }
+        let (columns, values) = matrix.row(i);
+        let mut sum = rhs[i];
+        for (&j, a) in columns.iter().zip(values) {
+            sum -= a * z[j];
+        }
+        z[i] += sum / diagonal[i];
+    }
+}
+
+/// Greedy aggregation on the strong connections; returns the aggregate of every node
+/// ([`UNASSIGNED`] for the nodes without strong neighbours) and the number of aggregates.
+fn aggregate(matrix: &Csr, diagonal: &[f64]) -> (Vec<usize>, usize) {
+    let n = matrix.rows();
+    let strong = |i: usize, j: usize, a: f64| {
+        i != j && a.abs() >= STRENGTH * (diagonal[i] * diagonal[j]).abs().sqrt()
+    };
+    let mut aggregates = vec![UNASSIGNED; n];
+    let mut count = 0;
+    // Pass 1: roots whose strong neighbourhood is untouched.
+    for i in 0..n {
+        if aggregates[i] != UNASSIGNED {
+            continue;
+        }
+        let (columns, values) = matrix.row(i);
+        let mut has_strong = false;
+        let mut untouched = true;
+        for (&j, &a) in columns.iter().zip(values) {
+            if strong(i, j, a) {
+                has_strong = true;
+                untouched &= aggregates[j] == UNASSIGNED;
+            }
+        }
+        if has_strong && untouched {
+            aggregates[i] = count;
+            for (&j, &a) in columns.iter().zip(values) {
+                if strong(i, j, a) {
+                    aggregates[j] = count;
+                }
+            }
+            count += 1;
+        }
+    }
+    // Pass 2: join the aggregate of the strongest aggregated neighbour (of pass 1).
+    let first_pass = aggregates.clone();
+    for i in 0..n {
+        if first_pass[i] != UNASSIGNED {
+            continue;
+        }
+        let (columns, values) = matrix.row(i);
+        let mut best: Option<(f64, usize)> = None;
+        for (&j, &a) in columns.iter().zip(values) {
+            if strong(i, j, a) && first_pass[j] != UNASSIGNED {
+                let weight = a.abs() / (diagonal[i] * diagonal[j]).abs().sqrt();
+                if best.is_none_or(|(strongest, _)| weight > strongest) {
+                    best = Some((weight, first_pass[j]));
+                }
+            }
+        }
+        if let Some((_, aggregate)) = best {
+            aggregates[i] = aggregate;
+        }
+    }
+    // Pass 3: what is left forms aggregates with its unaggregated strong neighbours; a node
+    // without strong neighbours stays unaggregated (its row is dominated by the diagonal, and
+    // the smoother alone reduces its error).
+    for i in 0..n {
+        if aggregates[i] != UNASSIGNED {
+            continue;
+        }
+        let (columns, values) = matrix.row(i);
+        if !columns.iter().zip(values).any(|(&j, &a)| strong(i, j, a)) {
+            continue;
+        }
+        aggregates[i] = count;
+        for (&j, &a) in columns.iter().zip(values) {
+            if strong(i, j, a) && aggregates[j] == UNASSIGNED {
+                aggregates[j] = count;
+            }
+        }
+        count += 1;
+    }
+    (aggregates, count)
+}
+
+/// `P = (I − ω D⁻¹A) P̂` with the tentative (piecewise constant) `P̂`; returns `(P, Pᵀ)`.
+fn smoothed_prolongation(
+    matrix: &Csr,
+    diagonal: &[f64],
+    aggregates: &[usize],
+    coarse: usize,
+) -> (Csr, Csr) {
+    let n = matrix.rows();
+    let spectral_bound = (0..n)
+        .map(|i| {
+            let (_, values) = matrix.row(i);
+            values.iter().map(|a| a.abs()).sum::<f64>() / diagonal[i]
+        })
+        .fold(0.0_f64, f64::max);
+    let omega = 4.0 / (3.0 * spectral_bound);
+    let mut offsets = vec![0];
+    let mut indices = Vec::new();
+    let mut values = Vec::new();
+    let mut row: Vec<(usize, f64)> = Vec::new();
+    for i in 0..n {
+        row.clear();
+        if aggregates[i] != UNASSIGNED {
+            row.push((aggregates[i], 1.0));
+        }
+        let (columns, entries) = matrix.row(i);
+        for (&j, &a) in columns.iter().zip(entries) {
+            if aggregates[j] != UNASSIGNED {
+                row.push((aggregates[j], -omega * a / diagonal[i]));
+            }
+        }
+        row.sort_unstable_by_key(|&(column, _)| column);
+        let start = indices.len();
+        for &(column, value) in &row {
+            if indices.len() > start && indices[indices.len() - 1] == column {
+                *values.last_mut().expect("same length") += value;
+            } else {
+                indices.push(column);
+                values.push(value);
+            }
+        }
+        offsets.push(indices.len());
+    }
+    let prolongation = Csr {
+        cols: coarse,
+        offsets,
+        indices,
+        values,
+    };
+    let restriction = prolongation.transpose();
+    (prolongation, restriction)
+}
+
+/// The pattern of the sparse product `X Y` (values zero; column indices sorted in every row).
+fn product_pattern(left: &Csr, right: &Csr) -> Csr {
+    let mut seen = vec![usize::MAX; right.cols];
+    let mut offsets = vec![0];
+    let mut indices = Vec::new();
+    for row in 0..left.rows() {
+        let start = indices.len();
+        for &k in left.row(row).0 {
+            for &column in right.row(k).0 {
+                if seen[column] != row {
+                    seen[column] = row;
+                    indices.push(column);
+                }
+            }
+        }
+        indices[start..].sort_unstable();
+        offsets.push(indices.len());
+    }
+    let values = vec![0.0; indices.len()];
+    Csr {
+        cols: right.cols,
+        offsets,
+        indices,
+        values,
+    }
+}
+
+/// Values of the rows `rows` of the product `X Y` into the pattern of `product` (computed by
+/// [`product_pattern`]). `marker` has at least as many entries as `Y` has columns and holds
+/// `usize::MAX` on entry and on exit.
+fn product_rows(left: &Csr, right: &Csr, product: &mut Csr, marker: &mut [usize], rows: &[usize]) {
+    for &row in rows {
+        let range = product.offsets[row]..product.offsets[row + 1];
+        for position in range.clone() {
+            marker[product.indices[position]] = position;
+            product.values[position] = 0.0;
+        }
+        let (middle, weights) = left.row(row);
+        for (&k, &weight) in middle.iter().zip(weights) {
+            if weight == 0.0 {
+                continue;
+            }
+            let (columns, values) = right.row(k);
+            for (&column, &value) in columns.iter().zip(values) {
+                product.values[marker[column]] += weight * value;
+            }
+        }
+        for position in range {
+            marker[product.indices[position]] = usize::MAX;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::sparse::Triplet;
+
+    /// 5-point Laplacian plus a small mass shift on an m×m grid.
+    fn laplacian(m: usize, shift: f64) -> SparseColMat<usize, f64> {
+        let index = |i: usize, j: usize| i * m + j;
+        let mut triplets = Vec::new();
+        for i in 0..m {
+            for j in 0..m {
+                triplets.push(Triplet::new(index(i, j), index(i, j), 4.0 + shift));
+                if i + 1 < m {
+                    triplets.push(Triplet::new(index(i, j), index(i + 1, j), -1.0));
+                    triplets.push(Triplet::new(index(i + 1, j), index(i, j), -1.0));
+                }
+                if j + 1 < m {
+                    triplets.push(Triplet::new(index(i, j), index(i, j + 1), -1.0));
+                    triplets.push(Triplet::new(index(i, j + 1), index(i, j), -1.0));
+                }
+            }
+        }
+        SparseColMat::try_new_from_triplets(m * m, m * m, &triplets).unwrap()
+    }
+
+    /// Energy-norm contraction of the V-cycle iteration `x ← x + B(b − A x)` on `A_FF`.
+    fn contraction(hierarchy: &mut Hierarchy, matrix: &Csr, fixed: &[bool]) -> f64 {
+        let n = fixed.len();
+        let _ = hierarchy.truncate(fixed);
+        // Error iteration on a rough start, b = 0: e ← e − B A_FF e.
+        let mut error: Vec<f64> = (0..n)
+            .map(|i| {
+                if fixed[i] {
+                    0.0
+                } else {
+                    ((i * 7919) % 13) as f64 - 6.0
+                }
+            })
+            .collect();
+        let energy = |e: &[f64]| {
+            let mut image = vec![0.0; n];
+            matrix.multiply(e, &mut image);
+            e.iter().zip(&image).map(|(a, b)| a * b).sum::<f64>().sqrt()
+        };
+        let mut image = vec![0.0; n];
+        let mut correction = vec![0.0; n];
+        let mut rate = 0.0;
+        for _ in 0..8 {
+            let before = energy(&error);
+            matrix.multiply(&error, &mut image);
+            for i in 0..n {
+                if fixed[i] {
+                    image[i] = 0.0;
+                }
+            }
+            hierarchy.cycle(&image, &mut correction);
+            for i in 0..n {
+                error[i] -= correction[i];
+                assert!(!fixed[i] || correction[i] == 0.0);
+            }
+            rate = energy(&error) / before;
+        }
+        rate
+    }
+
+    /// Measured energy contraction of the V(1,1)-cycle on these grids: 0.34–0.37 for m = 32
+    /// to 512, untruncated and truncated alike; the bound leaves room for rounding and
+    /// ordering effects but fails if the rate grows with the grid.
+    const CONTRACTION_BOUND: f64 = 0.45;
+
+    #[test]
+    fn v_cycle_contracts_independently_of_the_grid() {
+        for m in [32, 64, 128, 256] {
+            let matrix = laplacian(m, 1e-3);
+            let csr = Csr::from_symmetric(&matrix);
+            let mut hierarchy = Hierarchy::new(&csr);
+            assert!(
+                hierarchy.sizes().len() >= 2,
+                "sizes {:?}",
+                hierarchy.sizes()
+            );
+            let rate = contraction(&mut hierarchy, &csr, &vec![false; m * m]);
+            assert!(
+                rate < CONTRACTION_BOUND,
+                "m = {m}: V-cycle contraction {rate}"
+            );
+        }
+    }
+
+    #[test]
+    fn truncated_v_cycle_contracts_on_the_free_set() {
+        let m = 64;
+        let matrix = laplacian(m, 1e-3);
+        let csr = Csr::from_symmetric(&matrix);
+        let mut hierarchy = Hierarchy::new(&csr);
+        // Fixed: a disc in the middle and a strip along one side.
+        let fixed: Vec<bool> = (0..m * m)
+            .map(|k| {
+                let (i, j) = ((k / m) as f64, (k % m) as f64);
+                (i - 32.0).powi(2) + (j - 30.0).powi(2) < 150.0 || j < 5.0
+            })
+            .collect();
+        let rate = contraction(&mut hierarchy, &csr, &fixed);
+        assert!(
+            rate < CONTRACTION_BOUND,
+            "truncated V-cycle contraction {rate}"
+        );
+        // Untruncating again restores the original contraction.
+        let rate = contraction(&mut hierarchy, &csr, &vec![false; m * m]);
+        assert!(
+            rate < CONTRACTION_BOUND,
+            "restored V-cycle contraction {rate}"
+        );
+    }
+}
