@@ -257,10 +257,12 @@ pub struct BoxQpSolver {
     diagonal: Vec<f64>,
     /// The Cholesky factor of `A` itself (symbolic analysis at construction, numeric
     /// factorization once, on the first solve that needs it; [`BoxQpMethod::ActiveSet`]).
-    factor: CholeskySolver,
+    factor: Option<CholeskySolver>,
     /// `A` by rows and its truncated multigrid hierarchy ([`BoxQpMethod::MonotoneMultigrid`],
     /// built at construction).
     multigrid: Option<(Csr, Hierarchy)>,
+    /// Work vectors kept between calls (allocated by the first).
+    workspace: Option<Workspace>,
 }
 
 impl std::fmt::Debug for BoxQpSolver {
@@ -269,7 +271,13 @@ impl std::fmt::Debug for BoxQpSolver {
             .field("dimension", &self.diagonal.len())
             .field("nonzeros", &self.matrix.val().len())
             .field("settings", &self.settings)
-            .field("factorized", &self.factor.is_factorized())
+            .field(
+                "factorized",
+                &self
+                    .factor
+                    .as_ref()
+                    .is_some_and(CholeskySolver::is_factorized),
+            )
             .finish()
     }
 }
@@ -300,6 +308,30 @@ struct CgWork {
 }
 
 impl Workspace {
+    /// Zeroes every vector (as [`Workspace::new`] leaves them).
+    fn reset(&mut self) {
+        for vector in [
+            &mut self.gradient,
+            &mut self.trial,
+            &mut self.trial_gradient,
+            &mut self.projected,
+            &mut self.projected_gradient,
+            &mut self.direction,
+            &mut self.product,
+            &mut self.cg.residual,
+            &mut self.cg.preconditioned,
+            &mut self.cg.search,
+            &mut self.cg.image,
+            &mut self.cg.scratch,
+            &mut self.cg.previous,
+        ] {
+            vector.fill(0.0);
+        }
+        self.fixed.fill(false);
+        self.state.fill(BoundStatus::Free);
+        self.next_state.fill(BoundStatus::Free);
+    }
+
     fn new(dimension: usize) -> Self {
         Self {
             gradient: vec![0.0; dimension],
@@ -373,11 +405,14 @@ impl BoxQpSolver {
         let matrix = canonical_storage(matrix)?;
         let diagonal = validate_symmetric_positive_diagonal(&matrix)?;
 
-        let factor = CholeskySolver::analyse_as(
-            &matrix,
-            settings.factorization,
-            "box QP Cholesky factor of A",
-        )?;
+        let factor = match settings.method {
+            BoxQpMethod::ActiveSet => Some(CholeskySolver::analyse_as(
+                &matrix,
+                settings.factorization,
+                "box QP Cholesky factor of A",
+            )?),
+            BoxQpMethod::MonotoneMultigrid => None,
+        };
         let multigrid = (settings.method == BoxQpMethod::MonotoneMultigrid).then(|| {
             let rows = Csr::from_symmetric(&matrix);
             let hierarchy = Hierarchy::new(&rows);
@@ -389,6 +424,7 @@ impl BoxQpSolver {
             diagonal,
             factor,
             multigrid,
+            workspace: None,
         })
     }
 
@@ -400,9 +436,12 @@ impl BoxQpSolver {
             .map_or_else(Vec::new, |(_, hierarchy)| hierarchy.sizes())
     }
 
-    /// Whether the Cholesky factor of `A` is supernodal (see [`FactorKind`]).
+    /// Whether the Cholesky factor of `A` is supernodal (see [`FactorKind`]); `false` without
+    /// a factor ([`BoxQpMethod::MonotoneMultigrid`]).
     pub fn is_supernodal(&self) -> bool {
-        self.factor.is_supernodal()
+        self.factor
+            .as_ref()
+            .is_some_and(CholeskySolver::is_supernodal)
     }
 
     /// The matrix `A` (in canonical storage: sorted row indices in each column).
@@ -443,30 +482,53 @@ impl BoxQpSolver {
         };
         let mut stats = BoxQpStats::default();
         let mut history = Vec::new();
-        let mut work = Workspace::new(x.len());
+        // The work vectors of the previous call, reset (so that a solve never depends on the
+        // calls before it, as `--resume` requires), without new allocations.
+        let mut work = match self.workspace.take() {
+            Some(mut work) => {
+                work.reset();
+                work
+            }
+            None => Workspace::new(x.len()),
+        };
+        let result = self.solve_with(&problem, x, &mut stats, &mut history, &mut work);
+        self.workspace = Some(work);
+        result.map(|()| stats)
+    }
+
+    /// [`BoxQpSolver::solve`] after the checks, with the work vectors `work`.
+    fn solve_with(
+        &mut self,
+        problem: &Problem<'_>,
+        x: &mut [f64],
+        stats: &mut BoxQpStats,
+        history: &mut Vec<f64>,
+        work: &mut Workspace,
+    ) -> Result<()> {
+        let (rhs, lower, upper) = (problem.rhs, problem.lower, problem.upper);
 
         project(x, lower, upper);
         gradient(&self.matrix, x, rhs, &mut work.gradient);
-        let start_residual = scaled_kkt_residual(x, &work.gradient, &problem);
+        let start_residual = scaled_kkt_residual(x, &work.gradient, problem);
         if start_residual <= self.settings.tolerance {
-            self.finish(x, &problem, &mut stats);
-            return Ok(stats);
+            self.finish(x, problem, stats);
+            return Ok(());
         }
         history.push(start_residual);
 
         if self.settings.method == BoxQpMethod::MonotoneMultigrid {
-            self.monotone_multigrid(&problem, x, &mut work, &mut stats, &mut history)?;
-            self.finish(x, &problem, &mut stats);
-            return Ok(stats);
+            self.monotone_multigrid(problem, x, work, stats, history)?;
+            self.finish(x, problem, stats);
+            return Ok(());
         }
-        if self.active_set_phase(&problem, x, &mut work, &mut stats, &mut history)? {
-            self.finish(x, &problem, &mut stats);
-            return Ok(stats);
+        if self.active_set_phase(problem, x, work, stats, history)? {
+            self.finish(x, problem, stats);
+            return Ok(());
         }
         stats.used_fallback = true;
-        self.projected_newton_phase(&problem, x, &mut work, &mut stats, &mut history)?;
-        self.finish(x, &problem, &mut stats);
-        Ok(stats)
+        self.projected_newton_phase(problem, x, work, stats, history)?;
+        self.finish(x, problem, stats);
+        Ok(())
     }
 
     /// Checks lengths, finiteness and the ordering of the bounds.
@@ -607,12 +669,20 @@ impl BoxQpSolver {
                         );
                     }
                 }
+                // g ← g + α A d (up to rounding; a converged iterate is confirmed below with
+                // the gradient recomputed from x).
+                for i in 0..n {
+                    work.gradient[i] += step * work.product[i];
+                }
             }
-            rows.multiply(x, &mut work.gradient);
-            for i in 0..n {
-                work.gradient[i] -= problem.rhs[i];
+            let mut residual = scaled_kkt_residual(x, &work.gradient, problem);
+            if residual <= tolerance {
+                rows.multiply(x, &mut work.gradient);
+                for i in 0..n {
+                    work.gradient[i] -= problem.rhs[i];
+                }
+                residual = scaled_kkt_residual(x, &work.gradient, problem);
             }
-            let residual = scaled_kkt_residual(x, &work.gradient, problem);
             history.push(residual);
             if residual <= tolerance {
                 return Ok(());
@@ -1046,10 +1116,14 @@ impl BoxQpSolver {
 
     /// Numerically factorizes `A` once (the first time a solve needs it).
     fn ensure_factor(&mut self, stats: &mut BoxQpStats) -> Result<()> {
-        if self.factor.is_factorized() {
+        let factor = self
+            .factor
+            .as_mut()
+            .expect("the active set method analyses A at construction");
+        if factor.is_factorized() {
             return Ok(());
         }
-        self.factor.factorize(&self.matrix)?;
+        factor.factorize(&self.matrix)?;
         stats.factorizations += 1;
         Ok(())
     }
@@ -1058,6 +1132,8 @@ impl BoxQpSolver {
     fn solve_in_place(&mut self, rhs: &mut [f64]) -> Result<()> {
         let dimension = rhs.len();
         self.factor
+            .as_mut()
+            .expect("the active set method analyses A at construction")
             .solve_block(MatMut::from_column_major_slice_mut(rhs, dimension, 1))
     }
 
