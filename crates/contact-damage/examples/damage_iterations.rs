@@ -2,11 +2,13 @@
 //! `common/moving_damage.rs` (moving source, both bounds active, k the same for every N).
 //!
 //! ```text
-//! cargo run --release -p contact-damage --example damage_iterations -- [--active-set] [N ...]
+//! cargo run --release -p contact-damage --example damage_iterations -- [--active-set] [--steps-per-cell R] [N ...]
 //! ```
 //!
 //! With `--active-set` the primal–dual active set method (`BoxQpMethod::ActiveSet`) is measured
-//! instead of the default monotone multigrid.
+//! instead of the default monotone multigrid. With `--steps-per-cell R` the run takes R·N steps
+//! instead of 16 (k ∝ h: the source, hence the free boundary, moves the same number of cells
+//! per step at every N).
 //!
 //! Prints a markdown table: per N, the largest and the total number of outer (active-set /
 //! projected Newton) iterations and of inner (preconditioned CG) iterations over the steps,
@@ -26,22 +28,42 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     } else {
         BoxQpMethod::MonotoneMultigrid
     };
+    let steps_per_cell: Option<f64> = match arguments.iter().position(|a| a == "--steps-per-cell") {
+        Some(p) => Some(
+            arguments
+                .get(p + 1)
+                .ok_or("--steps-per-cell needs a value")?
+                .parse()?,
+        ),
+        None => None,
+    };
     let mut sizes: Vec<usize> = arguments
         .iter()
-        .filter(|a| *a != "--active-set")
-        .map(|a| a.parse())
+        .enumerate()
+        .filter(|(i, a)| {
+            *a != "--active-set"
+                && *a != "--steps-per-cell"
+                && !(*i > 0 && arguments[i - 1] == "--steps-per-cell")
+        })
+        .map(|(_, a)| a.parse())
         .collect::<Result<_, _>>()?;
     if sizes.is_empty() {
         sizes = vec![64, 128, 256, 512];
     }
-    println!("method: {method:?}");
+    println!(
+        "method: {method:?}, steps: {}",
+        steps_per_cell.map_or("16".to_string(), |r| format!("{r}·N"))
+    );
     println!(
         "| N | unknowns | outer it. max / total | inner CG it. max / total | factorizations | coarse updates | fallback steps | max KKT | β = 0 / β = 1 nodes (last step) | time per step |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|");
     for cells in sizes {
         let started = Instant::now();
-        let stats = moving_damage::run(cells, method)?;
+        let steps = steps_per_cell.map_or(moving_damage::STEPS, |r| {
+            (r * cells as f64).round() as usize
+        });
+        let stats = moving_damage::run(cells, method, steps.max(1))?;
         let per_step = started.elapsed().as_secs_f64() / stats.len() as f64;
         let outer_max = stats.iter().map(|s| s.iterations).max().unwrap_or(0);
         let outer_total: usize = stats.iter().map(|s| s.iterations).sum();

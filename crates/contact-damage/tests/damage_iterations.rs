@@ -27,7 +27,8 @@ const MAX_INNER_MULTIGRID: usize = 9;
 #[test]
 fn multigrid_damage_step_needs_no_factorization_and_its_iteration_counts_stay_bounded() {
     for cells in [16, 32, 64] {
-        let stats = moving_damage::run(cells, BoxQpMethod::MonotoneMultigrid).unwrap();
+        let stats = moving_damage::run(cells, BoxQpMethod::MonotoneMultigrid, moving_damage::STEPS)
+            .unwrap();
         assert_eq!(stats.len(), moving_damage::STEPS);
         for (n, s) in stats.iter().enumerate() {
             let step = n + 1;
@@ -46,7 +47,8 @@ fn multigrid_damage_step_needs_no_factorization_and_its_iteration_counts_stay_bo
 #[test]
 fn damage_step_factorizes_once_and_its_iteration_counts_stay_bounded() {
     for cells in [16, 32, 64] {
-        let stats = moving_damage::run(cells, BoxQpMethod::ActiveSet).unwrap();
+        let stats =
+            moving_damage::run(cells, BoxQpMethod::ActiveSet, moving_damage::STEPS).unwrap();
         assert_eq!(stats.len(), moving_damage::STEPS);
         let factorizations: usize = stats.iter().map(|s| s.factorizations).sum();
         assert_eq!(factorizations, 1, "N = {cells}: {stats:?}");

@@ -16,7 +16,7 @@ use std::sync::Arc;
 pub const DIFFUSION: f64 = 0.01;
 /// Final time T.
 pub const FINAL_TIME: f64 = 0.25;
-/// Number of time steps (k = T / STEPS for every N).
+/// Number of time steps of the fixed case (k = T / STEPS for every N).
 pub const STEPS: usize = 16;
 /// Strength S of the source.
 pub const STRENGTH: f64 = 40.0;
@@ -32,16 +32,20 @@ fn centre(t: f64) -> [f64; 2] {
     [0.3 + 1.6 * t, 0.5]
 }
 
-/// Runs the case on an N × N mesh with the box QP method `method`; returns the statistics of
-/// every step.
-pub fn run(cells: usize, method: BoxQpMethod) -> contact_damage::Result<Vec<BoxQpStats>> {
+/// Runs the case on an N × N mesh with the box QP method `method` and `steps` time steps
+/// (k = T / steps); returns the statistics of every step.
+pub fn run(
+    cells: usize,
+    method: BoxQpMethod,
+    steps: usize,
+) -> contact_damage::Result<Vec<BoxQpStats>> {
     use BoundaryPart::{Dirichlet, Neumann};
     // the sides only matter for the velocity step, which is not solved here
     let sides = [[Dirichlet, Neumann], [Neumann, Neumann]];
     let mesh = Mesh::box_mesh([0.0; 2], [1.0; 2], [cells; 2], sides)?;
     let space = Arc::new(LagrangeSpace::new(Arc::new(mesh), 1)?);
     let mass = assemble_damage_matrix(&space, 1.0, 0.0)?;
-    let k = FINAL_TIME / STEPS as f64;
+    let k = FINAL_TIME / steps as f64;
     let settings = BoxQpSettings {
         method,
         ..BoxQpSettings::default()
@@ -52,8 +56,8 @@ pub fn run(cells: usize, method: BoxQpMethod) -> contact_damage::Result<Vec<BoxQ
         .iter()
         .map(|&x| 1.0 - 0.5 * bump(x, centre(0.0)))
         .collect();
-    let mut stats = Vec::with_capacity(STEPS);
-    for n in 1..=STEPS {
+    let mut stats = Vec::with_capacity(steps);
+    for n in 1..=steps {
         let c = centre(n as f64 * k);
         let nodal: Vec<f64> = space
             .nodes()
