@@ -12,6 +12,7 @@
 //! in cell (and facet) order, so the loads do not depend on the number of threads.
 
 use crate::assembly::{field_strain, physical_gradients, FacetPoints};
+use crate::laws::Tensor;
 use crate::mesh::BoundaryPart;
 use crate::quadrature::QuadratureRule;
 use crate::scheme::{Data, Model, State};
@@ -95,6 +96,8 @@ impl<const D: usize> LoadQuadrature<D> {
         let n = tab.nodes;
         let nq = tab.len();
         let local = n * (D + 1);
+        // P1 on affine simplices: the basis gradients, hence ε(u_{n−1}), are constant per cell.
+        let constant_gradients = space.degree() == 1;
         let mut locals = vec![0.0; space.mesh().num_cells() * local];
         locals
             .par_chunks_mut(CHUNK_CELLS * local)
@@ -124,11 +127,15 @@ impl<const D: usize> LoadQuadrature<D> {
                     let cell = first + c;
                     let geometry = space.geometry(cell);
                     let nodes = space.cell_nodes(cell);
+                    let mut strain = Tensor::<D>::zeros();
                     for q in 0..nq {
-                        physical_gradients(geometry, tab, q, &mut grads);
+                        if q == 0 || !constant_gradients {
+                            physical_gradients(geometry, tab, q, &mut grads);
+                            strain = field_strain(nodes, &grads[..n], displacement);
+                            point_grads.extend_from_slice(&grads[..n]);
+                        }
                         let values = &tab.values[q * n..(q + 1) * n];
-                        strains.push(field_strain(nodes, &grads[..n], displacement));
-                        point_grads.extend_from_slice(&grads[..n]);
+                        strains.push(strain);
                         betas.push(
                             nodes
                                 .iter()
@@ -141,9 +148,16 @@ impl<const D: usize> LoadQuadrature<D> {
                 let mut sources = vec![0.0; points.len()];
                 damage_source.source_batch(&strains, &betas, &mut sources);
                 for (c, out) in out.chunks_mut(local).enumerate() {
+                    // P1: the basis gradients are constant on the cell, so the stresses are
+                    // integrated first and contracted with each gradient once.
+                    let mut integrated_stress = Tensor::<D>::zeros();
                     for q in 0..nq {
                         let p = c * nq + q;
-                        let grads = &point_grads[p * n..(p + 1) * n];
+                        let grads = if constant_gradients {
+                            &point_grads[c * n..(c + 1) * n]
+                        } else {
+                            &point_grads[p * n..(p + 1) * n]
+                        };
                         let values = &tab.values[q * n..(q + 1) * n];
                         let (strain, beta) = (strains[p], betas[p]);
                         let weight = weights[p];
@@ -152,16 +166,34 @@ impl<const D: usize> LoadQuadrature<D> {
                         if !supply.is_empty() {
                             source += supply[p];
                         }
+                        if constant_gradients {
+                            integrated_stress += stress * weight;
+                        }
                         for a in 0..n {
-                            let internal = stress * grads[a];
-                            for i in 0..D {
-                                let mut value = -internal[i];
-                                if !force.is_empty() {
-                                    value += force[p][i] * values[a];
+                            if !constant_gradients {
+                                let internal = stress * grads[a];
+                                for i in 0..D {
+                                    let mut value = -internal[i];
+                                    if !force.is_empty() {
+                                        value += force[p][i] * values[a];
+                                    }
+                                    out[a * (D + 1) + i] += weight * value;
                                 }
-                                out[a * (D + 1) + i] += weight * value;
+                            } else if !force.is_empty() {
+                                for i in 0..D {
+                                    out[a * (D + 1) + i] += weight * (force[p][i] * values[a]);
+                                }
                             }
                             out[a * (D + 1) + D] += weight * source * values[a];
+                        }
+                    }
+                    if constant_gradients {
+                        let grads = &point_grads[c * n..(c + 1) * n];
+                        for a in 0..n {
+                            let internal = integrated_stress * grads[a];
+                            for i in 0..D {
+                                out[a * (D + 1) + i] -= internal[i];
+                            }
                         }
                     }
                 }
@@ -196,5 +228,151 @@ impl<const D: usize> LoadQuadrature<D> {
             facets.scatter(space, 1, &values, &mut damage_source);
         }
         (velocity_load, damage_source)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::laws::{DamagedHooke, LinearViscosity, NormalComplianceCoulomb, TruncatedFremond};
+    use crate::mesh::{BoundaryPart::*, Mesh};
+    use std::sync::Arc;
+
+    fn model<const D: usize>() -> Model<D> {
+        Model {
+            viscosity: Arc::new(LinearViscosity {
+                shear: 1.0,
+                bulk: 0.5,
+            }),
+            elasticity: Arc::new(DamagedHooke {
+                shear_modulus: 1.3,
+                lame_lambda: 0.7,
+            }),
+            damage_source: Arc::new(TruncatedFremond {
+                lambda_d: 0.1,
+                lambda_w: 0.05,
+                damage_floor: 0.1,
+                strain_energy_cap: 10.0,
+            }),
+            contact: Arc::new(NormalComplianceCoulomb {
+                stiffness: 10.0,
+                friction: 0.4,
+                wear: 0.0,
+            }),
+            damage_diffusion: 0.1,
+        }
+    }
+
+    fn data<const D: usize>() -> Data<D> {
+        Data {
+            body_force: None,
+            traction: None,
+            contact_traction: None,
+            damage_supply: None,
+            damage_flux: None,
+            gap: Arc::new(|_, _| 0.0),
+            dirichlet: Vec::new(),
+            initial_displacement: Arc::new(|_| [0.0; D]),
+            initial_damage: Arc::new(|_| 1.0),
+        }
+    }
+
+    /// −(G(ε(u), β), ε(w)) and (φ(ε(u), β), ζ) point by point, the textbook way.
+    fn reference<const D: usize>(
+        space: &LagrangeSpace<D>,
+        model: &Model<D>,
+        state: &State,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let tab = Tabulation::cell_rule(
+            space.element(),
+            &QuadratureRule::<D>::simplex(2 * space.degree() + 2),
+        );
+        let n = tab.nodes;
+        let mut velocity = vec![0.0; space.num_nodes() * D];
+        let mut damage = vec![0.0; space.num_nodes()];
+        let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
+        for cell in 0..space.mesh().num_cells() {
+            let geometry = space.geometry(cell);
+            let nodes = space.cell_nodes(cell);
+            for q in 0..tab.len() {
+                physical_gradients(geometry, &tab, q, &mut grads);
+                let values = &tab.values[q * n..(q + 1) * n];
+                let strain = field_strain(nodes, &grads[..n], &state.displacement);
+                let beta: f64 = nodes
+                    .iter()
+                    .zip(values)
+                    .map(|(&node, v)| state.damage[node] * v)
+                    .sum();
+                let weight = tab.weights[q] * geometry.det;
+                let stress = model.elasticity.stress(&strain, beta);
+                let mut source = [0.0];
+                model
+                    .damage_source
+                    .source_batch(&[strain], &[beta], &mut source);
+                for a in 0..n {
+                    let internal = stress * grads[a];
+                    for i in 0..D {
+                        velocity[nodes[a] * D + i] -= weight * internal[i];
+                    }
+                    damage[nodes[a]] += weight * source[0] * values[a];
+                }
+            }
+        }
+        (velocity, damage)
+    }
+
+    fn loads_match_the_pointwise_assembly<const D: usize>(mesh: Mesh<D>) {
+        let mesh = Arc::new(mesh);
+        for degree in [1, 2] {
+            let space = LagrangeSpace::new(mesh.clone(), degree).unwrap();
+            let nodes = space.nodes();
+            let state = State {
+                step: 0,
+                time: 0.0,
+                displacement: nodes
+                    .iter()
+                    .flat_map(|x| {
+                        let mut u = [0.0; D];
+                        for (i, value) in u.iter_mut().enumerate() {
+                            *value = 0.1 * ((i + 1) as f64 * x[0] + x[D - 1] * x[0]).sin();
+                        }
+                        u
+                    })
+                    .collect(),
+                velocity: vec![0.0; nodes.len() * D],
+                damage: nodes
+                    .iter()
+                    .map(|x| 0.3 + 0.6 * (3.0 * x[1]).cos().abs())
+                    .collect(),
+            };
+            let (model, data) = (model::<D>(), data::<D>());
+            let loads = LoadQuadrature::new(&space).assemble(&space, &model, &data, 0.0, &state);
+            let expected = reference(&space, &model, &state);
+            for (computed, expected) in [(&loads.0, &expected.0), (&loads.1, &expected.1)] {
+                let scale = expected.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+                assert!(scale > 0.0);
+                for (c, e) in computed.iter().zip(expected) {
+                    assert!(
+                        (c - e).abs() <= 1e-13 * scale,
+                        "D = {D}, l = {degree}: {c} vs {e}"
+                    );
+                }
+            }
+        }
+    }
+
+    /// The P1 path integrates the stresses of a cell before contracting them with the
+    /// (constant) basis gradients; it must agree with the point-by-point assembly, and the P2
+    /// path with it too.
+    #[test]
+    fn loads_match_the_pointwise_assembly_in_2d_and_3d() {
+        let sides2 = [[Dirichlet, Neumann], [Contact, Neumann]];
+        loads_match_the_pointwise_assembly(
+            Mesh::box_mesh([0.0, 0.0], [1.0, 0.7], [5, 4], sides2).unwrap(),
+        );
+        let sides3 = [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]];
+        loads_match_the_pointwise_assembly(
+            Mesh::box_mesh([0.0; 3], [1.0, 0.8, 0.6], [3, 3, 2], sides3).unwrap(),
+        );
     }
 }
