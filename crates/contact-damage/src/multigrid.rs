@@ -55,7 +55,7 @@
 use faer::sparse::SparseColMat;
 
 /// Largest number of unknowns solved directly on the coarsest level.
-pub(crate) const COARSEST_SIZE: usize = 256;
+pub(crate) const COARSEST_SIZE: usize = 64;
 /// Symmetric Gauss–Seidel sweeps on a coarsest level too large for the dense factor.
 pub(crate) const COARSEST_SWEEPS: usize = 4;
 /// Size below which a pivot of the dense coarsest factor counts as zero, relative to the

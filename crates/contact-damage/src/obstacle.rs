@@ -31,7 +31,7 @@
 //! hierarchy of `A` built once per matrix (smoothed aggregation, Vaněk, Mandel & Brezina
 //! 1996: greedy aggregates of strongly coupled unknowns, a Jacobi-smoothed piecewise constant
 //! prolongation, Galerkin coarse matrices, a dense factor on the coarsest level of at most
-//! 256 unknowns; no factorization of `A`). One iteration:
+//! 64 unknowns; no factorization of `A`). One iteration:
 //! 1. **Nonlinear smoothing**: a symmetric projected Gauss–Seidel sweep, every `x_i` in turn
 //!    replaced by the exact minimizer of `q` in its interval, `clamp(x_i − g_i/a_ii)`.
 //! 2. **Truncation**: the indices lying on a bound after the smoothing keep their value; the
@@ -135,8 +135,8 @@
 //!
 //! The factor is simplicial by default ([`FactorKind::Simplicial`]): it is computed once per
 //! run, and only the solves count; measured on P1 damage matrices (`reports/benchmark_step.md`)
-//! the simplicial solve is 2.5–4× faster in 2D from N = 256 on than the supernodal one that
-//! faer's own rule picks there, and within a factor 1.7 either way in 3D.
+//! the simplicial solve is 1.6–1.9× faster in 2D than the supernodal one that faer's own rule
+//! picks from N = 256 on, and 1.8× slower in 3D at 16³.
 //!
 //! # References
 //! - C. Gräser, R. Kornhuber, *Multigrid methods for obstacle problems*, J. Comput. Math. 27
