@@ -135,7 +135,7 @@
 //!
 //! The factor is simplicial by default ([`FactorKind::Simplicial`]): it is computed once per
 //! run, and only the solves count; measured on P1 damage matrices (`reports/benchmark_step.md`)
-//! the simplicial solve is 1.6–1.9× faster in 2D than the supernodal one that faer's own rule
+//! the simplicial solve is 1.5–1.7× faster in 2D than the supernodal one that faer's own rule
 //! picks from N = 256 on, and 1.8× slower in 3D at 16³.
 //!
 //! # References
