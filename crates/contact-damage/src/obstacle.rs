@@ -45,8 +45,10 @@
 //!
 //! Every step decreases `q` (the smoother by exact minimization, the correction by the line
 //! search), and the projected Gauss–Seidel method alone converges to the unique minimizer
-//! for any SPD `A` from any start, so the iteration converges globally (Gräser & Kornhuber
-//! 2009, Thm. 4.1 for monotone corrections added to a globally convergent smoother). Once the
+//! for any SPD `A` from any start, so the iteration converges globally (the convergence
+//! argument of Gräser & Kornhuber 2009 for a globally convergent smoother followed by
+//! corrections that do not increase `q`: every accumulation point is a fixed point of the
+//! smoother, i.e. the minimizer). Once the
 //! bound set is identified it is a linear multigrid on `A_FF`, with a contraction independent
 //! of the mesh size; the KKT residual is checked after the smoothing and after the correction.
 //! Why this method for (5.2): the work per iteration is a few sparse products (no
