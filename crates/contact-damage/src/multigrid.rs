@@ -190,6 +190,19 @@ struct Level {
     residual: Vec<f64>,
 }
 
+impl Level {
+    /// One Gauss–Seidel sweep on `solution` for this level's `rhs` (forward or backward).
+    fn sweep(&mut self, backward: bool) {
+        gauss_seidel(
+            &self.matrix,
+            &self.diagonal,
+            &self.rhs,
+            &mut self.solution,
+            backward,
+        );
+    }
+}
+
 /// Grid transfer of a level to the next coarser one.
 #[derive(Debug, Clone)]
 struct Transfer {
@@ -404,20 +417,8 @@ impl Hierarchy {
                 None => {
                     level.solution.fill(0.0);
                     for _ in 0..COARSEST_SWEEPS {
-                        gauss_seidel(
-                            &level.matrix,
-                            &level.diagonal,
-                            &level.rhs,
-                            &mut level.solution,
-                            false,
-                        );
-                        gauss_seidel(
-                            &level.matrix,
-                            &level.diagonal,
-                            &level.rhs,
-                            &mut level.solution,
-                            true,
-                        );
+                        level.sweep(false);
+                        level.sweep(true);
                     }
                 }
             }
@@ -426,13 +427,7 @@ impl Hierarchy {
         {
             let level = &mut self.levels[l];
             level.solution.fill(0.0);
-            gauss_seidel(
-                &level.matrix,
-                &level.diagonal,
-                &level.rhs,
-                &mut level.solution,
-                false,
-            );
+            level.sweep(false);
             level.matrix.multiply(&level.solution, &mut level.residual);
             for i in 0..level.residual.len() {
                 level.residual[i] = if level.diagonal[i] > 0.0 {
@@ -470,13 +465,7 @@ impl Hierarchy {
                         .sum::<f64>();
                 }
             }
-            gauss_seidel(
-                &level.matrix,
-                &level.diagonal,
-                &level.rhs,
-                &mut level.solution,
-                true,
-            );
+            level.sweep(true);
         }
     }
 }
