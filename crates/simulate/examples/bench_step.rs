@@ -18,9 +18,10 @@
 //!
 //! Per measured step: the load and right-hand-side assembly ([`Simulation::step_loads`], inside
 //! the step), the velocity step (5.1), the damage step (5.2), the rest of `Simulation::step`
-//! (penetrations, gap, Dirichlet values), and the contact and damage statistics that `simulate`
-//! computes for `history.csv` (the same functions as `simulate::run`); writing a CSV line is
-//! not timed (a few hundred bytes). The reference is the best of 5 solves with the velocity
+//! (penetrations, gap, Dirichlet values), and the row of `history.csv` (contact and damage
+//! statistics, contact zone, viscous power, reactions: `simulate::record::record_step`, the
+//! function of the run loop, and the formatting of the line; writing its few hundred bytes is
+//! not timed). The reference is the best of 5 solves with the velocity
 //! factor (forward and backward substitution). The second table compares the simplicial and
 //! the supernodal Cholesky factorizations of faer for the velocity matrix (its nested
 //! dissection order) and the damage matrix M/k + κK (AMD).
@@ -38,12 +39,10 @@ use contact_damage::obstacle::BoxQpMethod;
 use contact_damage::quadrature::QuadratureRule;
 use contact_damage::scheme::Simulation;
 use contact_damage::space::Tabulation;
-use simulate::history::{
-    contact_integrals, damage_integrals, tangential_speed, ContactStep, RunningSums,
-};
+use simulate::history::RunningSums;
 use simulate::pictures::ContactLine;
 use simulate::problem::{parse_problem_file, ProblemSetup};
-use simulate::zone::{boundary_penetration, contact_force, contact_zone};
+use simulate::record::record_step;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -225,7 +224,6 @@ fn measure<const D: usize>(cells: usize) -> Result<String, Failure> {
     );
     let mut sums = RunningSums::new(contact.len());
     let k = simulation.time_step();
-    let gap = setup.problem.data.gap.clone();
 
     for _ in 0..WARM_STEPS {
         simulation.step()?;
@@ -240,48 +238,22 @@ fn measure<const D: usize>(cells: usize) -> Result<String, Failure> {
     let mut kkt = [0.0f64; 2];
     for m in 0..MEASURED_STEPS {
         let started = Instant::now();
-        let contact_damage::StepOutcome {
-            velocity,
-            damage,
-            normal_pressure,
-            friction_bound,
-        } = simulation.step()?;
+        let outcome = simulation.step()?;
         total += started.elapsed().as_secs_f64();
         let started = Instant::now();
-        let state = simulation.state();
-        let integrals = damage_integrals(&space, &tabulation, &state.damage);
-        let speed = tangential_speed(&contact, &state.velocity);
-        let on_contact = contact_integrals(
-            &contact,
-            &ContactStep {
-                status: &velocity.status,
-                normal_pressure: &normal_pressure,
-                friction_bound: &friction_bound,
-            },
-            &speed,
-            k,
+        let record = record_step(
+            &setup,
+            &simulation,
+            &outcome,
+            &tabulation,
+            line.axis,
             &mut sums,
         );
-        let force = contact_force(
-            &contact,
-            &normal_pressure,
-            &friction_bound,
-            &velocity.multipliers,
-        );
-        let previous: Vec<f64> = state
-            .displacement
-            .iter()
-            .zip(&state.velocity)
-            .map(|(u, v)| u - k * v)
-            .collect();
-        let gap_time = state.time - k;
-        let zone = contact_zone(
-            &space,
-            &boundary_penetration(&space, &contact, &previous, |x| gap(x, gap_time)),
-            line.axis,
-        );
-        std::hint::black_box((integrals, on_contact, force, zone));
+        std::hint::black_box(record.row.csv_line());
         statistics += started.elapsed().as_secs_f64();
+        let contact_damage::StepOutcome {
+            velocity, damage, ..
+        } = &outcome;
         outer += damage.stats.iterations;
         inner += damage.stats.inner_iterations;
         damage_factorizations += damage.stats.factorizations;
@@ -426,8 +398,8 @@ fn render(
         out,
         "Times in ms per step, mean of steps {}–{} of 128 (T = 1) of the rectangle/block example on the unit box \
          (after the first factorization). *loads* = load and right-hand-side assembly of (5.1) and (5.2); *rest* = \
-         the remainder of `Simulation::step` (penetrations, gap, Dirichlet values); *stats* = the contact and damage \
-         statistics of `history.csv`; *step* = `Simulation::step`; *full* = step + stats (everything `simulate` does in \
+         the remainder of `Simulation::step` (penetrations, gap, Dirichlet values); *stats* = the row of `history.csv` \
+         (`simulate::record::record_step` and its CSV line, as the run loop does); *step* = `Simulation::step`; *full* = step + stats (everything `simulate` does in \
          a step except writing VTU); *2 tri-solves* = one solve with the velocity factor (forward + backward \
          substitution), the reference limit; *ratio* = full / 2 tri-solves (target ≤ 3). *damage it.* = outer \
          (monotone multigrid) / inner (preconditioned CG, one truncated V-cycle each) iterations over the measured \

@@ -33,7 +33,7 @@ use contact_damage::contact::{ContactNodes, ContactStatus};
 use contact_damage::space::{strain, LagrangeSpace, Tabulation};
 use contact_input::output::write_atomic;
 use contact_input::InputError;
-use nalgebra::SVector;
+use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
 use std::ops::Range;
 use std::path::Path;
@@ -348,7 +348,9 @@ pub fn damage_integrals<const D: usize>(
 }
 
 /// ∫_Ω 𝒜ε(v)·ε(v) by the rule of `tabulation` (exact for a linear 𝒜 when the rule has
-/// degree ≥ 2(l − 1)).
+/// degree ≥ 2(l − 1)). The velocity gradient at a point is Σ_a v_a ⊗ J⁻ᵀ∇̂φ_a with the
+/// reference gradients tabulated once; for l = 1 it is constant on a cell, and so is the
+/// integrand (𝒜 depends on ε only): one evaluation per cell, weighted by the cell's measure.
 pub fn viscous_power<const D: usize>(
     setup: &ProblemSetup<D>,
     space: &LagrangeSpace<D>,
@@ -356,14 +358,32 @@ pub fn viscous_power<const D: usize>(
     velocity: &[f64],
 ) -> f64 {
     let viscosity = &setup.problem.model.viscosity;
+    let n = tabulation.nodes;
+    let (points, reference_measure) = if space.degree() == 1 {
+        (1, tabulation.weights.iter().sum::<f64>())
+    } else {
+        (tabulation.len(), 0.0)
+    };
     let [power] = sum_over_cells(space.mesh().num_cells(), |cells| {
         let mut power = 0.0;
         for c in cells {
-            let det = space.geometry(c).det.abs();
-            for (point, weight) in tabulation.points.iter().zip(&tabulation.weights) {
-                let (_, gradient) = space.eval_vector(c, point, velocity);
+            let geometry = space.geometry(c);
+            let nodes = space.cell_nodes(c);
+            for q in 0..points {
+                // Σ_a v_a ⊗ ∇̂φ_a(ξ_q), then the chain rule ∇v = (Σ_a v_a ⊗ ∇̂φ_a) J⁻¹
+                let mut reference_gradient = SMatrix::<f64, D, D>::zeros();
+                for (a, &node) in nodes.iter().enumerate() {
+                    let v = SVector::<f64, D>::from_column_slice(&velocity[node * D..node * D + D]);
+                    reference_gradient += v * tabulation.gradients[q * n + a].transpose();
+                }
+                let gradient = reference_gradient * geometry.inverse_transpose.transpose();
                 let rate = strain(&gradient);
-                power += weight * det * viscosity.stress(&rate).dot(&rate);
+                let weight = if points == 1 {
+                    reference_measure
+                } else {
+                    tabulation.weights[q]
+                };
+                power += weight * geometry.det.abs() * viscosity.stress(&rate).dot(&rate);
             }
         }
         [power]
@@ -474,6 +494,19 @@ pub(crate) mod tests {
             let rigid = space.interpolate_vector(|x| [0.3 - x[1], 0.1 + x[0]]);
             assert!(viscous_power(&setup, &space, &tabulation, &rigid).abs() < 1e-13);
         }
+    }
+
+    #[test]
+    fn viscous_power_is_exact_for_quadratic_velocities_in_p2() {
+        let setup = setup();
+        let space = unit_square_space(2);
+        let tabulation = Tabulation::cell_rule(space.element(), &QuadratureRule::<2>::simplex(4));
+        // v = (x y, x²): ε(v) = [[y, 1.5 x], [1.5 x, 0]], 𝒜ε·ε = ε·ε + 0.25 (tr ε)²
+        // = 1.25 y² + 4.5 x², whose integral over (0, 1) × (0, 2) is 10/3 + 3
+        let velocity = space.interpolate_vector(|x| [x[0] * x[1], x[0] * x[0]]);
+        let power = viscous_power(&setup, &space, &tabulation, &velocity);
+        let expected = 10.0 / 3.0 + 3.0;
+        assert!((power - expected).abs() < 1e-13, "{power} vs {expected}");
     }
 
     #[test]

@@ -17,6 +17,7 @@ pub mod folder;
 pub mod history;
 pub mod pictures;
 pub mod problem;
+pub mod record;
 pub mod resume;
 pub mod run;
 pub mod snapshot;

@@ -25,9 +25,7 @@
 
 use crate::folder;
 use crate::history::{
-    contact_integrals, damage_integrals, history_header, tangential_speed, truncate_history,
-    viscous_power, ContactStep, ForceCycle, HistoryRow, RunningSums, CYCLE_WINDOW_STEPS,
-    HISTORY_FILE,
+    history_header, truncate_history, ForceCycle, RunningSums, CYCLE_WINDOW_STEPS, HISTORY_FILE,
 };
 use crate::pictures::{
     contact_history_svg, damage_picture_file, damage_svg, picture_steps, pressure_steps,
@@ -35,14 +33,13 @@ use crate::pictures::{
     CONTACT_HISTORY_HEADER, CONTACT_HISTORY_PICTURE,
 };
 use crate::problem::ProblemSetup;
+use crate::record::{record_step, StepRecord};
 use crate::resume::resume;
 pub use crate::resume::{read_saved_state, SavedState};
 pub use crate::snapshot::{cell_stress, contact_file, solution_file};
 use crate::snapshot::{save_step, SavedStep};
-use crate::zone::{boundary_penetration, contact_force, contact_zone, ContactZone};
-use contact_damage::contact::ContactNodes;
 use contact_damage::quadrature::QuadratureRule;
-use contact_damage::scheme::{ContactTreatment, DamageEvolution, Simulation, StepOutcome};
+use contact_damage::scheme::{DamageEvolution, Simulation, StepOutcome};
 use contact_damage::space::Tabulation;
 use contact_damage::stability::StepLimit;
 use contact_input::output::write_atomic;
@@ -179,36 +176,6 @@ fn check_step_limit<const D: usize>(
     )))
 }
 
-/// The contact zone of the step just done, measured on the penetration whose p_ν the step
-/// used: u_{n−1} − g(t_{n−1}) in (5.1), or u_n − g(t_n) with the implicit normal compliance.
-fn step_contact_zone<const D: usize>(
-    setup: &ProblemSetup<D>,
-    simulation: &Simulation<D>,
-    contact: &ContactNodes<D>,
-    axis: usize,
-) -> ContactZone {
-    let state = simulation.state();
-    let space = simulation.space();
-    let (pressed, gap_time) = if setup.problem.settings.contact == ContactTreatment::Implicit {
-        (state.displacement.clone(), state.time)
-    } else {
-        let k = simulation.time_step();
-        let previous: Vec<f64> = state
-            .displacement
-            .iter()
-            .zip(&state.velocity)
-            .map(|(u, v)| u - k * v)
-            .collect();
-        (previous, state.time - k)
-    };
-    let gap = &setup.problem.data.gap;
-    contact_zone(
-        space,
-        &boundary_penetration(space, contact, &pressed, |x| gap(x, gap_time)),
-        axis,
-    )
-}
-
 /// Runs the problem of `setup` with `options`; see the module documentation for the files.
 pub fn run<const D: usize>(
     setup: &ProblemSetup<D>,
@@ -309,40 +276,28 @@ pub fn run<const D: usize>(
         );
     }
     while simulation.state().step < last_step {
+        let outcome = simulation
+            .step()
+            .map_err(|error| setup.load_watch.explain(&setup.origin, error.into()))?;
+        let StepRecord { row, speed } = record_step(
+            setup,
+            &simulation,
+            &outcome,
+            &tabulation,
+            contact_line.axis,
+            &mut sums,
+        );
         let StepOutcome {
             velocity,
             damage,
             normal_pressure,
             friction_bound,
-        } = simulation
-            .step()
-            .map_err(|error| setup.load_watch.explain(&setup.origin, error.into()))?;
+        } = &outcome;
         let state = simulation.state();
         let n = state.step;
         max_kkt.velocity = max_kkt.velocity.max(velocity.stats.kkt_residual);
         max_kkt.damage = max_kkt.damage.max(damage.stats.kkt_residual);
-        let (mean_damage, area_damage_below_half) =
-            damage_integrals(&space, &tabulation, &state.damage);
-        let speed = tangential_speed(&contact, &state.velocity);
-        let on_contact = contact_integrals(
-            &contact,
-            &ContactStep {
-                status: &velocity.status,
-                normal_pressure: &normal_pressure,
-                friction_bound: &friction_bound,
-            },
-            &speed,
-            simulation.time_step(),
-            &mut sums,
-        );
-        let (force, tangential_force) = contact_force(
-            &contact,
-            &normal_pressure,
-            &friction_bound,
-            &velocity.multipliers,
-        );
-        let zone = step_contact_zone(setup, &simulation, &contact, contact_line.axis);
-        if let Some((low, high)) = force_cycle.push(on_contact.normal_force) {
+        if let Some((low, high)) = force_cycle.push(row.normal_force) {
             return Err(InputError::InvalidInput(format!(
                 "{}: the total normal contact force cycles with period two between {low:.6e} and {high:.6e} over steps {}..={n}, although every step is solved exactly: the step k = {:e} is above the stability limit of the explicit normal compliance for the contact state reached (the estimate at the start was {:.3e}); raise `steps` or use `[scheme] contact = \"implicit\"`",
                 setup.origin,
@@ -351,40 +306,6 @@ pub fn run<const D: usize>(
                 step_limit.time_step,
             )));
         }
-        let viscous_power = viscous_power(setup, &space, &tabulation, &state.velocity);
-        sums.viscous_dissipation += simulation.time_step() * viscous_power;
-        let row = HistoryRow {
-            step: n,
-            time: state.time,
-            normal_force: on_contact.normal_force,
-            tangential_force,
-            force: std::array::from_fn(|i| if i < D { force[i] } else { 0.0 }),
-            contact_zone: zone.measure,
-            zone_bounds: [zone.lower, zone.upper],
-            slip_zone: on_contact.slip_zone,
-            separated: on_contact.counts[0],
-            stick: on_contact.counts[1],
-            slip: on_contact.counts[2],
-            slip_rate: on_contact.slip_rate,
-            max_accumulated_slip: sums.accumulated_slip.iter().fold(0.0, |a, &b| a.max(b)),
-            friction_power: on_contact.friction_power,
-            friction_dissipation: sums.friction_dissipation,
-            viscous_power,
-            viscous_dissipation: sums.viscous_dissipation,
-            mean_damage,
-            area_damage_below_half,
-            velocity_kkt: velocity.stats.kkt_residual,
-            damage_kkt: damage.stats.kkt_residual,
-            newton_iterations: velocity.stats.newton_iterations,
-            friction_iterations: velocity.stats.friction_iterations,
-            damage_iterations: damage.stats.iterations,
-            reactions: simulation
-                .part_reactions(&velocity.reaction)
-                .iter()
-                .flatten()
-                .copied()
-                .collect(),
-        };
         history
             .write_all(row.csv_line().as_bytes())
             .and_then(|()| history.flush())
@@ -428,9 +349,9 @@ pub fn run<const D: usize>(
                     space: &space,
                     contact: &contact,
                     state,
-                    velocity: &velocity,
-                    normal_pressure: &normal_pressure,
-                    friction_bound: &friction_bound,
+                    velocity,
+                    normal_pressure,
+                    friction_bound,
                     sums: &sums,
                     steps,
                     time_step: simulation.time_step(),
