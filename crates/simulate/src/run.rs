@@ -328,7 +328,7 @@ pub fn run<const D: usize>(
                             n,
                             state.time,
                             &velocity.status,
-                            &normal_pressure,
+                            normal_pressure,
                             &speed,
                             &sums.accumulated_slip,
                         )
