@@ -480,14 +480,20 @@ fn write_data_section(out: &mut dyn Write, section: &str, arrays: &[Array]) -> i
     writeln!(out, "      </{section}>")
 }
 
-/// Writes floats (shortest round-trip representation), `per_line` per line.
+/// Writes floats (shortest round-trip representation, by `ryu`: the value read back is the
+/// value written), `per_line` per line.
 fn write_numbers(out: &mut dyn Write, values: &[f64], per_line: usize) -> io::Result<()> {
+    let mut buffer = ryu::Buffer::new();
+    let mut line_text = Vec::with_capacity(32 * per_line.max(1) + 16);
     for line in values.chunks(per_line.max(1)) {
-        write!(out, "         ")?;
-        for value in line {
-            write!(out, " {value:e}")?;
+        line_text.clear();
+        line_text.extend_from_slice(b"         ");
+        for &value in line {
+            line_text.push(b' ');
+            line_text.extend_from_slice(buffer.format(value).as_bytes());
         }
-        writeln!(out)?;
+        line_text.push(b'\n');
+        out.write_all(&line_text)?;
     }
     Ok(())
 }
@@ -1080,6 +1086,35 @@ mod tests {
         assert!(write_boundary_vtu(&path, &space, Dirichlet, &empty).is_err());
         assert!(!path.exists());
         fs::remove_dir_all(directory).unwrap();
+    }
+
+    #[test]
+    fn numbers_read_back_bitwise() {
+        let values = [
+            0.0,
+            -0.0,
+            0.1,
+            -2.5e-6,
+            1.0 / 3.0,
+            123456789.123,
+            5e-324,
+            -1e-300,
+            f64::MAX,
+            f64::MIN_POSITIVE,
+            -0.000010559430519274483,
+        ];
+        let mut text = Vec::new();
+        write_numbers(&mut text, &values, 3).unwrap();
+        let text = String::from_utf8(text).unwrap();
+        assert_eq!(text.lines().count(), values.len().div_ceil(3));
+        let read: Vec<f64> = text
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect();
+        assert_eq!(read.len(), values.len());
+        for (r, v) in read.iter().zip(&values) {
+            assert_eq!(r.to_bits(), v.to_bits(), "{r} vs {v}");
+        }
     }
 
     #[test]
