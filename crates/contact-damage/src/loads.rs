@@ -123,10 +123,14 @@ impl<const D: usize> LoadQuadrature<D> {
                 let mut strains = Vec::with_capacity(points.len());
                 let mut betas = Vec::with_capacity(points.len());
                 let mut point_grads = Vec::with_capacity(points.len() * n);
+                let mut nodal_damage = [0.0; crate::element::MAX_CELL_NODES];
                 for c in 0..count {
                     let cell = first + c;
                     let geometry = space.geometry(cell);
                     let nodes = space.cell_nodes(cell);
+                    for (value, &node) in nodal_damage.iter_mut().zip(nodes) {
+                        *value = damage[node];
+                    }
                     let mut strain = Tensor::<D>::zeros();
                     for q in 0..nq {
                         if q == 0 || !constant_gradients {
@@ -136,13 +140,13 @@ impl<const D: usize> LoadQuadrature<D> {
                         }
                         let values = &tab.values[q * n..(q + 1) * n];
                         strains.push(strain);
-                        betas.push(
-                            nodes
-                                .iter()
-                                .zip(values)
-                                .map(|(&node, v)| damage[node] * v)
-                                .sum::<f64>(),
-                        );
+                        // β_{n−1} at the point (β ≥ 0, so the zero start of the sum loses no
+                        // sign of zero against `Sum`)
+                        let mut beta = 0.0;
+                        for (b, v) in nodal_damage[..n].iter().zip(values) {
+                            beta += b * v;
+                        }
+                        betas.push(beta);
                     }
                 }
                 let mut sources = vec![0.0; points.len()];
