@@ -71,7 +71,8 @@ use contact_damage::obstacle::BoxQpMethod;
 use contact_damage::scheme::{
     Data, Model, PointScalarField, PrescribedDisplacement, Problem, SchemeSettings,
 };
-use contact_input::expr::Expr;
+use contact_input::expr::compiled::with_registers;
+use contact_input::expr::{Expr, Program};
 use contact_input::file::{parse_expr, parse_toml};
 use contact_input::laws::LawsFile;
 use contact_input::scheme::SchemeFile;
@@ -496,6 +497,33 @@ fn eval_vector<const D: usize>(exprs: &[Expr; D], values: &[f64]) -> [f64; D] {
     std::array::from_fn(|i| exprs[i].eval_f64(values))
 }
 
+/// The N components of a load field compiled into one program (common subexpressions shared),
+/// evaluated per point on f64 without walking the expression trees.
+struct CompiledField<const N: usize> {
+    program: Program,
+}
+
+impl<const N: usize> CompiledField<N> {
+    fn new(exprs: &[Expr; N]) -> Self {
+        let components: Vec<&Expr> = exprs.iter().collect();
+        Self {
+            program: Program::fuse(&components),
+        }
+    }
+
+    /// The components at the point x (the variables x, y, z, then `extra`, as
+    /// [`point_values`] lays them out).
+    fn eval<const D: usize>(&self, x: &[f64; D], extra: &[f64]) -> [f64; N] {
+        let mut values = [0.0; 8];
+        values[..D].copy_from_slice(x);
+        values[3..3 + extra.len()].copy_from_slice(extra);
+        with_registers(|registers: &mut Vec<f64>| {
+            self.program
+                .eval_array(&values[..3 + extra.len()], registers)
+        })
+    }
+}
+
 fn groups(list: &[GroupFile]) -> Vec<GroupRef> {
     list.iter()
         .map(|g| match g {
@@ -737,23 +765,27 @@ impl<const D: usize> ProblemSetup<D> {
         }
 
         let load_watch = LoadWatch::default();
+        // The loads run at every quadrature point of every step: compiled once here.
         let body_force: Option<contact_damage::scheme::VectorField<D>> = body_force.map(|force| {
             let watch = load_watch.clone();
+            let force = CompiledField::new(&force);
             Arc::new(move |x: &[f64; D], t: f64| {
-                let value = eval_vector(&force, &point_values(x, &[t]));
+                let value = force.eval(x, &[t]);
                 watch.check("loads.body_force", "f0", value, x, t)
             }) as contact_damage::scheme::VectorField<D>
         });
         let traction = traction.map(|traction| {
             let watch = load_watch.clone();
+            let traction = CompiledField::new(&traction);
             Arc::new(move |x: &[f64; D], t: f64, normal: &[f64; D]| {
                 let mut extra = [t, 0.0, 0.0, 0.0];
                 extra[1..1 + D].copy_from_slice(normal);
                 let factor = curve.as_ref().map_or(1.0, |curve| curve.factor(t));
-                let value = eval_vector(&traction, &point_values(x, &extra)).map(|f| f * factor);
+                let value = traction.eval(x, &extra).map(|f| f * factor);
                 watch.check("loads.traction", "f2", value, x, t)
             }) as contact_damage::scheme::BoundaryVectorField<D>
         });
+        let gap = CompiledField::new(&[gap]);
         let gap_watch = load_watch.clone();
         let problem = Problem {
             mesh: Arc::new(mesh),
@@ -772,8 +804,8 @@ impl<const D: usize> ProblemSetup<D> {
                 damage_supply: None,
                 damage_flux: None,
                 gap: Arc::new(move |x, t| {
-                    let value = gap.eval_f64(&point_values(x, &[t]));
-                    gap_watch.check("loads.gap", "g", [value], x, t)[0]
+                    let value = gap.eval(x, &[t]);
+                    gap_watch.check("loads.gap", "g", value, x, t)[0]
                 }),
                 dirichlet,
                 initial_displacement: Arc::new(move |x| {
@@ -1128,5 +1160,63 @@ impl LoadCurve {
         }
         let ((t0, f0), (t1, f1)) = (points[after - 1], points[after]);
         f0 + (f1 - f0) * (t - t0) / (t1 - t0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The compiled loads give the values of the expression trees, bit for bit, at points
+    /// spread over a box and over time.
+    #[test]
+    fn compiled_loads_are_bitwise_the_expression_trees() {
+        let constants: BTreeMap<String, f64> = [
+            ("pressure", 1.2),
+            ("width", 0.4),
+            ("center", 1.2),
+            ("period", 1.0),
+        ]
+        .map(|(k, v)| (k.to_string(), v))
+        .into_iter()
+        .collect();
+        let parse =
+            |source: &str, variables: &[&str]| Expr::parse(source, variables, &constants).unwrap();
+        let traction = [
+            parse(
+                "0.3*pressure*max(0, ny)*exp(-((x - center)/width)^2)*(1 - cos(2*pi*t/period))/2",
+                &TRACTION_VARIABLES,
+            ),
+            parse(
+                "-pressure*max(0, nz + ny)*exp(-((x - center)/width)^2)*(1 - cos(2*pi*t/period))/2",
+                &TRACTION_VARIABLES,
+            ),
+            parse("sqrt(1 + x^2 + z^2)*sin(t)/(2 + nx)", &TRACTION_VARIABLES),
+        ];
+        let force = [
+            parse("x*y - z^3 + t", &FIELD_VARIABLES),
+            parse("tanh(x - t)*log(2 + y)", &FIELD_VARIABLES),
+            parse("min(x, y)^2.5 + abs(z - 0.5)", &FIELD_VARIABLES),
+        ];
+        let compiled_traction = CompiledField::new(&traction);
+        let compiled_force = CompiledField::new(&force);
+        for p in 0..200 {
+            let x: [f64; 3] =
+                std::array::from_fn(|i| ((p * (7 + 4 * i) + 3 * i) % 97) as f64 / 48.0);
+            let t = (p % 13) as f64 / 6.0;
+            let normal = [[0.0, -1.0, 0.0], [0.6, 0.8, 0.0], [0.0, 0.0, 1.0]][p % 3];
+            let extra = [t, normal[0], normal[1], normal[2]];
+            let expected = eval_vector(&traction, &point_values(&x, &extra));
+            let compiled = compiled_traction.eval(&x, &extra);
+            let expected_force = eval_vector(&force, &point_values(&x, &[t]));
+            let compiled_force = compiled_force.eval(&x, &[t]);
+            for (a, b) in compiled
+                .iter()
+                .chain(&compiled_force)
+                .zip(expected.iter().chain(&expected_force))
+            {
+                assert_eq!(a.to_bits(), b.to_bits(), "{a} vs {b} at x = {x:?}, t = {t}");
+            }
+        }
     }
 }
