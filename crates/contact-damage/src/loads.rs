@@ -140,8 +140,7 @@ impl<const D: usize> LoadQuadrature<D> {
                         }
                         let values = &tab.values[q * n..(q + 1) * n];
                         strains.push(strain);
-                        // β_{n−1} at the point (β ≥ 0, so the zero start of the sum loses no
-                        // sign of zero against `Sum`)
+                        // β_{n−1} at the point
                         let mut beta = 0.0;
                         for (b, v) in nodal_damage[..n].iter().zip(values) {
                             beta += b * v;

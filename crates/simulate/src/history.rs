@@ -359,17 +359,19 @@ pub fn viscous_power<const D: usize>(
 ) -> f64 {
     let viscosity = &setup.problem.model.viscosity;
     let n = tabulation.nodes;
-    let (points, reference_measure) = if space.degree() == 1 {
-        (1, tabulation.weights.iter().sum::<f64>())
+    // P1: one point (the first; the gradients are the same at all) with the reference measure
+    let reference_measure = [tabulation.weights.iter().sum::<f64>()];
+    let weights: &[f64] = if space.degree() == 1 {
+        &reference_measure
     } else {
-        (tabulation.len(), 0.0)
+        &tabulation.weights
     };
     let [power] = sum_over_cells(space.mesh().num_cells(), |cells| {
         let mut power = 0.0;
         for c in cells {
             let geometry = space.geometry(c);
             let nodes = space.cell_nodes(c);
-            for q in 0..points {
+            for (q, weight) in weights.iter().enumerate() {
                 // Σ_a v_a ⊗ ∇̂φ_a(ξ_q), then the chain rule ∇v = (Σ_a v_a ⊗ ∇̂φ_a) J⁻¹
                 let mut reference_gradient = SMatrix::<f64, D, D>::zeros();
                 for (a, &node) in nodes.iter().enumerate() {
@@ -378,11 +380,6 @@ pub fn viscous_power<const D: usize>(
                 }
                 let gradient = reference_gradient * geometry.inverse_transpose.transpose();
                 let rate = strain(&gradient);
-                let weight = if points == 1 {
-                    reference_measure
-                } else {
-                    tabulation.weights[q]
-                };
                 power += weight * geometry.det.abs() * viscosity.stress(&rate).dot(&rate);
             }
         }

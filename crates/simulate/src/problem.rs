@@ -487,10 +487,25 @@ fn parse_vector<const D: usize>(
 /// The variable values of an expression: the position padded to (x, y, z), then `extra`
 /// (t, then the normal for the traction).
 fn point_values<const D: usize>(x: &[f64; D], extra: &[f64]) -> Vec<f64> {
-    let mut values = vec![0.0; 3 + extra.len()];
+    let mut values = [0.0; MAX_VARIABLES];
+    let len = fill_point_values(x, extra, &mut values);
+    values[..len].to_vec()
+}
+
+/// Most variables of a load expression: x, y, z, t and a normal ([`TRACTION_VARIABLES`]).
+const MAX_VARIABLES: usize = TRACTION_VARIABLES.len();
+
+/// Lays out the variables of a load expression at the point x in `values`: x, y, z (zero
+/// beyond D), then `extra`; returns how many were written.
+fn fill_point_values<const D: usize>(
+    x: &[f64; D],
+    extra: &[f64],
+    values: &mut [f64; MAX_VARIABLES],
+) -> usize {
     values[..D].copy_from_slice(x);
-    values[3..].copy_from_slice(extra);
-    values
+    values[D..3].fill(0.0);
+    values[3..3 + extra.len()].copy_from_slice(extra);
+    3 + extra.len()
 }
 
 fn eval_vector<const D: usize>(exprs: &[Expr; D], values: &[f64]) -> [f64; D] {
@@ -511,15 +526,12 @@ impl<const N: usize> CompiledField<N> {
         }
     }
 
-    /// The components at the point x (the variables x, y, z, then `extra`, as
-    /// [`point_values`] lays them out).
+    /// The components at the point x (the variables of [`fill_point_values`]).
     fn eval<const D: usize>(&self, x: &[f64; D], extra: &[f64]) -> [f64; N] {
-        let mut values = [0.0; 8];
-        values[..D].copy_from_slice(x);
-        values[3..3 + extra.len()].copy_from_slice(extra);
+        let mut values = [0.0; MAX_VARIABLES];
+        let len = fill_point_values(x, extra, &mut values);
         with_registers(|registers: &mut Vec<f64>| {
-            self.program
-                .eval_array(&values[..3 + extra.len()], registers)
+            self.program.eval_array(&values[..len], registers)
         })
     }
 }
@@ -1084,11 +1096,11 @@ fn prescribed_displacements<const D: usize>(
                     }
                 }
             }
-            components[c] =
-                Some(
-                    Arc::new(move |x: &[f64; D], t: f64| expr.eval_f64(&point_values(x, &[t])))
-                        as PointScalarField<D>,
-                );
+            let compiled = CompiledField::new(&[expr]);
+            components[c] = Some(Arc::new(move |x: &[f64; D], t: f64| {
+                let [value] = compiled.eval(x, &[t]);
+                value
+            }) as PointScalarField<D>);
         }
         parts.push(PrescribedDisplacement {
             name: part.part.clone(),
