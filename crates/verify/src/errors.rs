@@ -81,10 +81,35 @@ pub enum Reference<const D: usize> {
     Discrete(Arc<Vec<State>>),
 }
 
+/// The discrete solution at one quadrature point.
+struct DiscretePoint<const D: usize> {
+    strain: Tensor<D>,
+    /// ε(v_n).
+    rate: Tensor<D>,
+    damage: f64,
+    damage_gradient: SVector<f64, D>,
+    /// Quadrature weight × |det J|.
+    weight: f64,
+}
+
+/// What the discrete solution is compared with at one quadrature point.
+struct ReferencePoint<const D: usize> {
+    strain: Tensor<D>,
+    /// ε(δu_n).
+    quotient: Tensor<D>,
+    /// ε(u̇(t_n)) (None for a discrete reference).
+    rate: Option<Tensor<D>>,
+    damage: f64,
+    damage_gradient: SVector<f64, D>,
+}
+
 /// Accumulates the error components over the steps of one run (used inside the observer).
 pub struct ErrorTracker<const D: usize> {
     reference: Reference<D>,
     tabulation: Tabulation<D>,
+    /// The reference gradients are the same at every quadrature point (P1): the discrete
+    /// gradients are then computed once per cell.
+    constant_gradients: bool,
     /// Physical quadrature points, cell-major.
     points: Vec<[f64; D]>,
     time_step: f64,
@@ -116,8 +141,14 @@ impl<const D: usize> ErrorTracker<D> {
                 tabulation.points.iter().map(|xi| geometry.point(xi))
             })
             .collect();
+        let nodes = tabulation.nodes;
+        let constant_gradients = tabulation
+            .gradients
+            .chunks(nodes)
+            .all(|at_point| at_point == &tabulation.gradients[..nodes]);
         let mut tracker = Self {
             reference,
+            constant_gradients,
             tabulation,
             points,
             time_step,
@@ -192,91 +223,135 @@ impl<const D: usize> ErrorTracker<D> {
             Reference::Discrete(_) => None,
         };
         let points = &self.points;
+        let constant_gradients = self.constant_gradients;
         let chunk_sums: Vec<[f64; 5]> = new_strain
             .par_chunks_mut(CHUNK_CELLS * nq)
             .enumerate()
             .map(|(chunk, strain_out)| {
                 let first_cell = chunk * CHUNK_CELLS;
                 let cells = strain_out.len() / nq;
-                // The exact ∇u, ∇u̇, β, ∇β at every quadrature point of the chunk.
-                let mut exact_points = Vec::new();
-                if let Some(exact) = &exact {
-                    let range = first_cell * nq..(first_cell + cells) * nq;
-                    exact_points.reserve(range.len());
-                    exact.errors.for_batches(&points[range], t, |_, columns| {
-                        let g: [[&[f64]; D]; D] = std::array::from_fn(|i| {
-                            std::array::from_fn(|j| columns.get(Quantity::Gradient(i, j)))
-                        });
-                        let r: [[&[f64]; D]; D] = std::array::from_fn(|i| {
-                            std::array::from_fn(|j| columns.get(Quantity::RateGradient(i, j)))
-                        });
-                        let beta = columns.get(Quantity::Damage);
-                        let b: [&[f64]; D] =
-                            std::array::from_fn(|j| columns.get(Quantity::DamageGradient(j)));
-                        for p in 0..beta.len() {
-                            exact_points.push((
-                                sym(&SMatrix::<f64, D, D>::from_fn(|i, j| g[i][j][p])),
-                                sym(&SMatrix::<f64, D, D>::from_fn(|i, j| r[i][j][p])),
-                                beta[p],
-                                SVector::<f64, D>::from_fn(|j, _| b[j][p]),
-                            ));
-                        }
-                    });
-                }
-                let mut local = [0.0; 5];
+                // The discrete fields at every quadrature point of the chunk.
+                let mut discrete = Vec::with_capacity(cells * nq);
                 let mut grads =
                     [SVector::<f64, D>::zeros(); contact_damage::element::MAX_CELL_NODES];
-                for c in 0..cells {
-                    let cell = first_cell + c;
+                for cell in first_cell..first_cell + cells {
                     let geometry = space.geometry(cell);
                     let nodes = space.cell_nodes(cell);
+                    let mut gradients_at = None;
                     for q in 0..nq {
-                        physical_gradients(geometry, tab, q, &mut grads);
+                        // Affine P1: the gradients, hence ε(u_h), ε(v_h) and ∇β_h, are the
+                        // same at every point of the cell, computed once (bitwise the same).
+                        let (strain, rate, damage_gradient) = match gradients_at {
+                            Some(values) if constant_gradients => values,
+                            _ => {
+                                physical_gradients(geometry, tab, q, &mut grads);
+                                let grads = &grads[..n_nodes];
+                                let values = (
+                                    field_strain(nodes, grads, &state.displacement),
+                                    field_strain(nodes, grads, &state.velocity),
+                                    nodes
+                                        .iter()
+                                        .enumerate()
+                                        .map(|(a, &node)| grads[a] * state.damage[node])
+                                        .fold(SVector::<f64, D>::zeros(), |acc, g| acc + g),
+                                );
+                                gradients_at = Some(values);
+                                values
+                            }
+                        };
                         let values = &tab.values[q * n_nodes..(q + 1) * n_nodes];
-                        let weight = tab.weights[q] * geometry.det;
-                        let strain_h = field_strain(nodes, &grads[..n_nodes], &state.displacement);
-                        let rate_h = field_strain(nodes, &grads[..n_nodes], &state.velocity);
-                        let beta_h: f64 = nodes
-                            .iter()
-                            .zip(values)
-                            .map(|(&node, v)| state.damage[node] * v)
-                            .sum();
-                        let grad_beta_h: SVector<f64, D> = nodes
-                            .iter()
-                            .enumerate()
-                            .map(|(a, &node)| grads[a] * state.damage[node])
-                            .fold(SVector::<f64, D>::zeros(), |acc, g| acc + g);
-                        let (strain, quotient, rate, beta, grad_beta) = if exact.is_some() {
-                            let (strain, rate, beta, grad_beta) = exact_points[c * nq + q];
-                            let quotient = (strain - previous_strain[cell * nq + q]) / k;
-                            (strain, quotient, Some(rate), beta, grad_beta)
-                        } else {
-                            let reference = reference_state.expect("discrete reference state");
-                            let strain =
-                                field_strain(nodes, &grads[..n_nodes], &reference.displacement);
-                            let previous =
-                                field_strain(nodes, &grads[..n_nodes], previous_displacement);
-                            let beta: f64 = nodes
+                        discrete.push(DiscretePoint {
+                            strain,
+                            rate,
+                            damage: nodes
                                 .iter()
                                 .zip(values)
-                                .map(|(&node, v)| reference.damage[node] * v)
-                                .sum();
-                            let grad_beta = nodes
-                                .iter()
-                                .enumerate()
-                                .map(|(a, &node)| grads[a] * reference.damage[node])
-                                .fold(SVector::<f64, D>::zeros(), |acc, g| acc + g);
-                            (strain, (strain - previous) / k, None, beta, grad_beta)
-                        };
-                        strain_out[c * nq + q] = strain;
-                        local[0] += weight * (strain - strain_h).norm_squared();
-                        local[1] += weight * (quotient - rate_h).norm_squared();
-                        local[2] += weight * (beta - beta_h).powi(2);
-                        local[3] += weight * (grad_beta - grad_beta_h).norm_squared();
-                        if let Some(rate) = rate {
-                            local[4] += weight * (rate - rate_h).norm_squared();
-                        } else {
-                            local[4] = f64::NAN;
+                                .map(|(&node, v)| state.damage[node] * v)
+                                .sum(),
+                            damage_gradient,
+                            weight: tab.weights[q] * geometry.det,
+                        });
+                    }
+                }
+                let mut local = [0.0; 5];
+                let mut add = |at: usize, reference: ReferencePoint<D>| {
+                    let discrete = &discrete[at];
+                    let weight = discrete.weight;
+                    strain_out[at] = reference.strain;
+                    local[0] += weight * (reference.strain - discrete.strain).norm_squared();
+                    local[1] += weight * (reference.quotient - discrete.rate).norm_squared();
+                    local[2] += weight * (reference.damage - discrete.damage).powi(2);
+                    local[3] += weight
+                        * (reference.damage_gradient - discrete.damage_gradient).norm_squared();
+                    if let Some(rate) = reference.rate {
+                        local[4] += weight * (rate - discrete.rate).norm_squared();
+                    } else {
+                        local[4] = f64::NAN;
+                    }
+                };
+                let first_point = first_cell * nq;
+                if let Some(exact) = &exact {
+                    // The exact ∇u, ∇u̇, β, ∇β, batch after batch, in point order.
+                    let range = first_point..first_point + cells * nq;
+                    exact
+                        .errors
+                        .for_batches(&points[range], t, |offset, columns| {
+                            let g: [[&[f64]; D]; D] = std::array::from_fn(|i| {
+                                std::array::from_fn(|j| columns.get(Quantity::Gradient(i, j)))
+                            });
+                            let r: [[&[f64]; D]; D] = std::array::from_fn(|i| {
+                                std::array::from_fn(|j| columns.get(Quantity::RateGradient(i, j)))
+                            });
+                            let beta = columns.get(Quantity::Damage);
+                            let b: [&[f64]; D] =
+                                std::array::from_fn(|j| columns.get(Quantity::DamageGradient(j)));
+                            for (p, &damage) in beta.iter().enumerate() {
+                                let at = offset + p;
+                                let strain = sym(&SMatrix::<f64, D, D>::from_fn(|i, j| g[i][j][p]));
+                                add(
+                                    at,
+                                    ReferencePoint {
+                                        strain,
+                                        quotient: (strain - previous_strain[first_point + at]) / k,
+                                        rate: Some(sym(&SMatrix::<f64, D, D>::from_fn(|i, j| {
+                                            r[i][j][p]
+                                        }))),
+                                        damage,
+                                        damage_gradient: SVector::<f64, D>::from_fn(|j, _| b[j][p]),
+                                    },
+                                );
+                            }
+                        });
+                } else {
+                    let reference = reference_state.expect("discrete reference state");
+                    for c in 0..cells {
+                        let cell = first_cell + c;
+                        let geometry = space.geometry(cell);
+                        let nodes = space.cell_nodes(cell);
+                        for q in 0..nq {
+                            physical_gradients(geometry, tab, q, &mut grads);
+                            let grads = &grads[..n_nodes];
+                            let values = &tab.values[q * n_nodes..(q + 1) * n_nodes];
+                            let strain = field_strain(nodes, grads, &reference.displacement);
+                            let previous = field_strain(nodes, grads, previous_displacement);
+                            add(
+                                c * nq + q,
+                                ReferencePoint {
+                                    strain,
+                                    quotient: (strain - previous) / k,
+                                    rate: None,
+                                    damage: nodes
+                                        .iter()
+                                        .zip(values)
+                                        .map(|(&node, v)| reference.damage[node] * v)
+                                        .sum(),
+                                    damage_gradient: nodes
+                                        .iter()
+                                        .enumerate()
+                                        .map(|(a, &node)| grads[a] * reference.damage[node])
+                                        .fold(SVector::<f64, D>::zeros(), |acc, g| acc + g),
+                                },
+                            );
                         }
                     }
                 }
