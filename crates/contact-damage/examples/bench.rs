@@ -515,7 +515,7 @@ fn measure<const D: usize>(cells: usize) -> contact_damage::Result<BTreeMap<Stri
         let source: Vec<f64> = lumped.iter().map(|m| -strain_energy * m).collect();
         let previous = vec![1.0; space.num_nodes()];
         let start = Instant::now();
-        let solved = damage.solve(&source, &previous)?;
+        let solved = damage.solve(&source, &previous, &[])?;
         let damage_solve = seconds(start);
         progress(D, cells, "damage step (cold)", damage_solve);
         put("damage_solve_s", format!("{damage_solve:.4}"));

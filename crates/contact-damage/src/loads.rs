@@ -347,6 +347,7 @@ mod tests {
                     .iter()
                     .map(|x| 0.3 + 0.6 * (3.0 * x[1]).cos().abs())
                     .collect(),
+                previous_damage: Vec::new(),
             };
             let (model, data) = (model::<D>(), data::<D>());
             let loads = LoadQuadrature::new(&space).assemble(&space, &model, &data, 0.0, &state);

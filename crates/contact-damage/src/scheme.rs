@@ -146,6 +146,10 @@ pub struct State {
     pub velocity: Vec<f64>,
     /// β_n, nodal.
     pub damage: Vec<f64>,
+    /// β_{n−1}, nodal, or empty (n = 0, or a state that is not continued): the start of the
+    /// next damage step is extrapolated from β_n and β_{n−1} ([`DamageOperator::solve`]), so a
+    /// restart that is to continue bit for bit needs it.
+    pub previous_damage: Vec<f64>,
 }
 
 /// What one step of the scheme computed ([`Simulation::step`]).
@@ -346,6 +350,7 @@ impl<const D: usize> Simulation<D> {
             velocity: vec![0.0; displacement.len()],
             displacement,
             damage: damage_values,
+            previous_damage: Vec::new(),
         };
         Ok(Self {
             problem,
@@ -395,6 +400,7 @@ impl<const D: usize> Simulation<D> {
         if state.displacement.len() != n * D
             || state.velocity.len() != n * D
             || state.damage.len() != n
+            || !(state.previous_damage.is_empty() || state.previous_damage.len() == n)
         {
             return Err(Error::InvalidInput(
                 "state does not match the finite element space".into(),
@@ -541,6 +547,7 @@ impl<const D: usize> Simulation<D> {
         let settings = self.problem.settings.velocity;
         let previous_velocity = &self.state.velocity;
         let previous_damage = &self.state.damage;
+        let before_previous_damage = &self.state.previous_damage;
         let velocity_op = &mut self.velocity;
         let damage_op = &mut self.damage;
         let ((velocity, velocity_time), (damage, damage_time)) = rayon::join(
@@ -552,7 +559,9 @@ impl<const D: usize> Simulation<D> {
             || {
                 let started = std::time::Instant::now();
                 let damage = match damage_op {
-                    Some(operator) => operator.solve(&damage_source, previous_damage),
+                    Some(operator) => {
+                        operator.solve(&damage_source, previous_damage, before_previous_damage)
+                    }
                     None => Ok(DamageSolution {
                         damage: previous_damage.clone(),
                         stats: BoxQpStats::default(),
@@ -573,6 +582,7 @@ impl<const D: usize> Simulation<D> {
             self.state.displacement[dof] = prescribed_displacement[dof];
         }
         self.state.velocity.clone_from(&velocity.velocity);
+        std::mem::swap(&mut self.state.previous_damage, &mut self.state.damage);
         self.state.damage.clone_from(&damage.damage);
         self.state.step = n;
         self.state.time = time;

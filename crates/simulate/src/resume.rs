@@ -39,6 +39,12 @@ pub struct SavedState {
     pub velocity: Vec<f64>,
     /// β_n.
     pub damage: Vec<f64>,
+    /// β_{n−1} (empty at n = 0), the other start value of the next damage step
+    /// ([`State::previous_damage`]). Absent from the files of earlier versions: the run then
+    /// continues with the damage step started from β_n, which changes the results by no more
+    /// than the solver's tolerance.
+    #[serde(default)]
+    pub previous_damage: Vec<f64>,
     /// Σ_{m ≤ n} k |v_{m,τ}(a)| per contact node (see [`crate::history`]).
     pub accumulated_slip: Vec<f64>,
     /// Σ_{m ≤ n} k j(u_{m−1}, v_m).
@@ -60,6 +66,15 @@ fn check_saved_values<const D: usize>(saved: &SavedState, path: &Path) -> Result
         ("displacement", &saved.displacement, saved.nodes * D),
         ("velocity", &saved.velocity, saved.nodes * D),
         ("damage", &saved.damage, saved.nodes),
+        (
+            "previous_damage",
+            &saved.previous_damage,
+            if saved.previous_damage.is_empty() {
+                0
+            } else {
+                saved.nodes
+            },
+        ),
     ] {
         if values.len() != length {
             return Err(bad(
@@ -71,11 +86,16 @@ fn check_saved_values<const D: usize>(saved: &SavedState, path: &Path) -> Result
             return Err(bad(field, format!("[{i}] = {} is not finite", values[i])));
         }
     }
-    if let Some(i) = saved.damage.iter().position(|b| !(0.0..=1.0).contains(b)) {
-        return Err(bad(
-            "damage",
-            format!("[{i}] = {} lies outside [0, 1]", saved.damage[i]),
-        ));
+    for (field, values) in [
+        ("damage", &saved.damage),
+        ("previous_damage", &saved.previous_damage),
+    ] {
+        if let Some(i) = values.iter().position(|b| !(0.0..=1.0).contains(b)) {
+            return Err(bad(
+                field,
+                format!("[{i}] = {} lies outside [0, 1]", values[i]),
+            ));
+        }
     }
     if let Some(i) = saved
         .accumulated_slip
@@ -230,6 +250,7 @@ pub(crate) fn resume<const D: usize>(
         displacement: saved.displacement,
         velocity: saved.velocity,
         damage: saved.damage,
+        previous_damage: saved.previous_damage,
     })?;
     Ok(Resumed {
         saved_steps,

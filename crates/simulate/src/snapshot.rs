@@ -194,6 +194,7 @@ pub(crate) fn save_step<const D: usize>(
             displacement: state.displacement.clone(),
             velocity: state.velocity.clone(),
             damage: state.damage.clone(),
+            previous_damage: state.previous_damage.clone(),
             accumulated_slip: sums.accumulated_slip.clone(),
             friction_dissipation: sums.friction_dissipation,
             viscous_dissipation: sums.viscous_dissipation,
@@ -219,6 +220,7 @@ mod tests {
             displacement: space.interpolate_vector(|x| [0.1 * x[0] + 0.1 * x[1], -0.2 * x[1]]),
             velocity: space.interpolate_vector(|x| [x[1], 0.3 * x[1]]),
             damage: vec![0.6; space.num_nodes()],
+            previous_damage: Vec::new(),
         };
         let stress = cell_stress(&setup, &space, &state);
         let strain = Tensor::<2>::new(0.1, 0.05, 0.05, -0.2);

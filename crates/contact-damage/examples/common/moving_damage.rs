@@ -56,6 +56,8 @@ pub fn run(
         .iter()
         .map(|&x| 1.0 - 0.5 * bump(x, centre(0.0)))
         .collect();
+    // β_{n−2}: the start of each step is extrapolated as in the scheme (empty at n = 1)
+    let mut before = Vec::new();
     let mut stats = Vec::with_capacity(steps);
     for n in 1..=steps {
         let c = centre(n as f64 * k);
@@ -65,8 +67,8 @@ pub fn run(
             .map(|&x| HEALING - STRENGTH * bump(x, c))
             .collect();
         let source = multiply(&mass, &nodal);
-        let solution = operator.solve(&source, &damage)?;
-        damage = solution.damage;
+        let solution = operator.solve(&source, &damage, &before)?;
+        before = std::mem::replace(&mut damage, solution.damage);
         stats.push(solution.stats);
     }
     Ok(stats)

@@ -65,7 +65,7 @@ impl Program {
                 Instruction::Constant(bits) => out.fill(f64::from_bits(bits)),
                 Instruction::Variable(slot) => {
                     // Copied only where it is an output (read from the registers).
-                    if self.outputs.contains(&(index as u32)) {
+                    if self.output_variables[index] {
                         out.copy_from_slice(column(slot))
                     }
                 }

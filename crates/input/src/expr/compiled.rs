@@ -148,6 +148,9 @@ pub struct Program {
     pub(super) outputs: Vec<Register>,
     /// Number of values the evaluation takes.
     pub(super) variables: usize,
+    /// Per instruction: a variable that is also an output (its register is then written by a
+    /// batch evaluation, which otherwise reads variables from their input columns).
+    pub(super) output_variables: Vec<bool>,
 }
 
 /// Lowering of trees into hash-consed instructions (constant operands of `+`, `−`, `·` are
@@ -254,10 +257,17 @@ impl Builder {
                 instructions.push(instruction.renumbered(&map));
             }
         }
+        let outputs: Vec<Register> = outputs.iter().map(|&o| map[o as usize]).collect();
+        let mut output_variables = vec![false; instructions.len()];
+        for &output in &outputs {
+            output_variables[output as usize] =
+                matches!(instructions[output as usize], Instruction::Variable(_));
+        }
         Program {
             instructions,
-            outputs: outputs.iter().map(|&o| map[o as usize]).collect(),
+            outputs,
             variables,
+            output_variables,
         }
     }
 }

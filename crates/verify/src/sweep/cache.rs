@@ -177,6 +177,7 @@ impl Reader<'_> {
             displacement: self.vector()?,
             velocity: self.vector()?,
             damage: self.vector()?,
+            previous_damage: Vec::new(),
         })
     }
 }
@@ -230,6 +231,7 @@ mod tests {
                 displacement: vec![1.0 / 3.0, -2.5e-300],
                 velocity: vec![f64::MIN_POSITIVE, 7.0],
                 damage: vec![0.999],
+                previous_damage: Vec::new(),
             })
             .collect();
         store_states(scratch.path(), &run, &states).unwrap();
