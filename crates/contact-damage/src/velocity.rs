@@ -565,6 +565,8 @@ impl<const D: usize> VelocityOperator<D> {
             Some((schur, trailing)) => (schur, Some(trailing)),
             None => (self.schur_from_solves()?, None),
         };
+        // checked once here; every step solves with it (`condensed_friction`)
+        CondensedFriction::validate_matrix(self.schur.as_ref())?;
         Ok(())
     }
 
@@ -632,7 +634,8 @@ impl<const D: usize> VelocityOperator<D> {
         let mut schur = Mat::<f64>::zeros(m, m);
         for (p, &i) in index.iter().enumerate() {
             for (q, &j) in index.iter().enumerate() {
-                schur[(i, j)] = product[(p, q)];
+                // exactly symmetric (the blocked product need not be, to rounding)
+                schur[(i, j)] = 0.5 * (product[(p, q)] + product[(q, p)]);
             }
         }
         Some((
@@ -1400,7 +1403,8 @@ impl<const D: usize> VelocityOperator<D> {
             weights,
             group_size: D - 1,
         };
-        let friction = problem.solve(&mut x, multipliers, friction_settings)?;
+        // S was checked when it was computed (`factorize`)
+        let friction = problem.solve_with_checked_matrix(&mut x, multipliers, friction_settings)?;
         stats.friction_iterations += friction.newton_iterations;
         stats.friction_gradient_iterations += friction.gradient_iterations;
         Ok(x)
