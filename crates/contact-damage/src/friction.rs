@@ -207,7 +207,8 @@ impl CondensedFriction<'_> {
         Self::validate_matrix(self.matrix)
     }
 
-    /// The O(m) part of [`validate`](Self::validate): sizes, w and r (not the entries of S).
+    /// The O(m) part of [`validate`](Self::validate): sizes (S's too), w and r, not the entries
+    /// of S.
     fn validate_vectors(&self) -> Result<()> {
         if self.group_size != 1 && self.group_size != 2 {
             return Err(Error::parameter(
@@ -369,15 +370,9 @@ impl CondensedFriction<'_> {
         multipliers: &mut [f64],
         settings: &FrictionSettings,
     ) -> Result<FrictionStats> {
+        // sizes (S included), w and r
         self.validate_vectors()?;
         let m = self.dimension();
-        if self.matrix.nrows() != m || self.matrix.ncols() != m {
-            return Err(Error::InvalidInput(format!(
-                "friction matrix is {}×{} but m = {m}",
-                self.matrix.nrows(),
-                self.matrix.ncols()
-            )));
-        }
         debug_assert!(
             (0..m).all(|j| (j + 1..m).all(|i| self.matrix[(i, j)] == self.matrix[(j, i)])),
             "solve_with_checked_matrix: S is not exactly symmetric"
