@@ -506,8 +506,9 @@ fn preconditioned_cg(
         if norm(&residual) <= target {
             // the recursive residual drifts from the true one: confirm
             let true_residual = residual_of(&solution);
-            let matrix_norm = (0..matrix.nrows())
-                .map(|i| matrix.row(i).iter().map(|a| a.abs()).sum::<f64>())
+            // ‖A‖_∞ as the largest column sum (A is symmetric; columns are contiguous)
+            let matrix_norm = (0..matrix.ncols())
+                .map(|j| matrix.col(j).iter().map(|a| a.abs()).sum::<f64>())
                 .fold(0.0_f64, f64::max);
             let floor = NEWTON_PCG_ROUNDING_ULPS * f64::EPSILON * matrix_norm * norm(&solution);
             return (norm(&true_residual) <= target + floor).then_some(solution);

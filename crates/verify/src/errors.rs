@@ -92,6 +92,38 @@ struct DiscretePoint<const D: usize> {
     weight: f64,
 }
 
+/// The discrete quantities that are constant on an affine P1 cell: ε(u_h), ε(v_h), ∇β_h and,
+/// for a discrete reference, its ε(u), ε(u) at the previous time and ∇β.
+#[derive(Clone, Copy)]
+struct CellGradients<const D: usize> {
+    strain: Tensor<D>,
+    rate: Tensor<D>,
+    damage_gradient: SVector<f64, D>,
+    reference: Option<(Tensor<D>, Tensor<D>, SVector<f64, D>)>,
+}
+
+/// ∇ of a nodal scalar field on a cell, from the physical basis gradients of its nodes.
+fn scalar_gradient<const D: usize>(
+    nodes: &[usize],
+    grads: &[SVector<f64, D>],
+    nodal: &[f64],
+) -> SVector<f64, D> {
+    nodes
+        .iter()
+        .enumerate()
+        .map(|(a, &node)| grads[a] * nodal[node])
+        .fold(SVector::<f64, D>::zeros(), |acc, g| acc + g)
+}
+
+/// A nodal scalar field at a point, from the basis values there.
+fn scalar_value(nodes: &[usize], values: &[f64], nodal: &[f64]) -> f64 {
+    nodes
+        .iter()
+        .zip(values)
+        .map(|(&node, v)| nodal[node] * v)
+        .sum()
+}
+
 /// What the discrete solution is compared with at one quadrature point.
 struct ReferencePoint<const D: usize> {
     strain: Tensor<D>,
@@ -230,8 +262,10 @@ impl<const D: usize> ErrorTracker<D> {
             .map(|(chunk, strain_out)| {
                 let first_cell = chunk * CHUNK_CELLS;
                 let cells = strain_out.len() / nq;
-                // The discrete fields at every quadrature point of the chunk.
+                // The discrete fields at every quadrature point of the chunk, and those of a
+                // discrete reference (same basis gradients).
                 let mut discrete = Vec::with_capacity(cells * nq);
+                let mut references = Vec::new();
                 let mut grads =
                     [SVector::<f64, D>::zeros(); contact_damage::element::MAX_CELL_NODES];
                 for cell in first_cell..first_cell + cells {
@@ -239,38 +273,49 @@ impl<const D: usize> ErrorTracker<D> {
                     let nodes = space.cell_nodes(cell);
                     let mut gradients_at = None;
                     for q in 0..nq {
-                        // Affine P1: the gradients, hence ε(u_h), ε(v_h) and ∇β_h, are the
-                        // same at every point of the cell, computed once (bitwise the same).
-                        let (strain, rate, damage_gradient) = match gradients_at {
+                        // Affine P1: the gradients, hence the strains and the damage gradients,
+                        // are the same at every point of the cell, computed once (bitwise the
+                        // same).
+                        let cell_values = match gradients_at {
                             Some(values) if constant_gradients => values,
                             _ => {
                                 physical_gradients(geometry, tab, q, &mut grads);
                                 let grads = &grads[..n_nodes];
-                                let values = (
-                                    field_strain(nodes, grads, &state.displacement),
-                                    field_strain(nodes, grads, &state.velocity),
-                                    nodes
-                                        .iter()
-                                        .enumerate()
-                                        .map(|(a, &node)| grads[a] * state.damage[node])
-                                        .fold(SVector::<f64, D>::zeros(), |acc, g| acc + g),
-                                );
+                                let values = CellGradients {
+                                    strain: field_strain(nodes, grads, &state.displacement),
+                                    rate: field_strain(nodes, grads, &state.velocity),
+                                    damage_gradient: scalar_gradient(nodes, grads, &state.damage),
+                                    reference: reference_state.map(|reference| {
+                                        (
+                                            field_strain(nodes, grads, &reference.displacement),
+                                            field_strain(nodes, grads, previous_displacement),
+                                            scalar_gradient(nodes, grads, &reference.damage),
+                                        )
+                                    }),
+                                };
                                 gradients_at = Some(values);
                                 values
                             }
                         };
                         let values = &tab.values[q * n_nodes..(q + 1) * n_nodes];
                         discrete.push(DiscretePoint {
-                            strain,
-                            rate,
-                            damage: nodes
-                                .iter()
-                                .zip(values)
-                                .map(|(&node, v)| state.damage[node] * v)
-                                .sum(),
-                            damage_gradient,
+                            strain: cell_values.strain,
+                            rate: cell_values.rate,
+                            damage: scalar_value(nodes, values, &state.damage),
+                            damage_gradient: cell_values.damage_gradient,
                             weight: tab.weights[q] * geometry.det,
                         });
+                        if let (Some(reference), Some((strain, previous, damage_gradient))) =
+                            (reference_state, cell_values.reference)
+                        {
+                            references.push(ReferencePoint {
+                                strain,
+                                quotient: (strain - previous) / k,
+                                rate: None,
+                                damage: scalar_value(nodes, values, &reference.damage),
+                                damage_gradient,
+                            });
+                        }
                     }
                 }
                 let mut local = [0.0; 5];
@@ -323,36 +368,8 @@ impl<const D: usize> ErrorTracker<D> {
                             }
                         });
                 } else {
-                    let reference = reference_state.expect("discrete reference state");
-                    for c in 0..cells {
-                        let cell = first_cell + c;
-                        let geometry = space.geometry(cell);
-                        let nodes = space.cell_nodes(cell);
-                        for q in 0..nq {
-                            physical_gradients(geometry, tab, q, &mut grads);
-                            let grads = &grads[..n_nodes];
-                            let values = &tab.values[q * n_nodes..(q + 1) * n_nodes];
-                            let strain = field_strain(nodes, grads, &reference.displacement);
-                            let previous = field_strain(nodes, grads, previous_displacement);
-                            add(
-                                c * nq + q,
-                                ReferencePoint {
-                                    strain,
-                                    quotient: (strain - previous) / k,
-                                    rate: None,
-                                    damage: nodes
-                                        .iter()
-                                        .zip(values)
-                                        .map(|(&node, v)| reference.damage[node] * v)
-                                        .sum(),
-                                    damage_gradient: nodes
-                                        .iter()
-                                        .enumerate()
-                                        .map(|(a, &node)| grads[a] * reference.damage[node])
-                                        .fold(SVector::<f64, D>::zeros(), |acc, g| acc + g),
-                                },
-                            );
-                        }
+                    for (at, reference) in references.into_iter().enumerate() {
+                        add(at, reference);
                     }
                 }
                 local
