@@ -63,7 +63,9 @@
 //! (J'(x; d) is the one-sided directional derivative, so the test needs J'(x; d) < 0). Near the
 //! solution the decrease of J falls below its rounding error; the full step is then accepted
 //! when J does not increase by more than a rounding band *and* the KKT residual at least halves.
-//! A Newton step counts as *progress* when the full step was accepted and the KKT residual at
+//! The full step is tried first, by both tests; a damped step (t < 1) must in addition lower J
+//! by more than the rounding band, since at the rounding level the Armijo test accepts noise
+//! and a damped step in place of a converging full one stalls Newton. A Newton step counts as *progress* when the full step was accepted and the KKT residual at
 //! least halved; otherwise a burst of accelerated proximal-gradient steps (FISTA with step 1/L,
 //! made monotone by an adaptive restart whenever J would increase) is taken from the current,
 //! best, iterate and Newton is retried. L starts from a power-iteration estimate of λ_max(S) and
@@ -87,9 +89,12 @@
 //! restoration, SIAM J. Sci. Comput. 28 (2006); A. Beck, M. Teboulle, FISTA (2009);
 //! B. O'Donoghue, E. Candès, Adaptive restart for accelerated gradient schemes (2015).
 
+use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
+use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
+use faer::linalg::cholesky::llt::solve::solve_in_place_with_conj;
 use faer::linalg::matmul::matmul;
 use faer::prelude::*;
-use faer::{Accum, Side};
+use faer::{Accum, Conj};
 
 use crate::error::History;
 use crate::{Error, Result};
@@ -464,63 +469,129 @@ const NEWTON_PCG_ROUNDING_ULPS: f64 = 16.0;
 /// is factorized afresh.
 const NEWTON_PCG_ITERATIONS: usize = 25;
 
-/// The factor of the last Newton system factorized in one solve and its non-stick unknowns.
+/// The non-stick unknowns N of a Newton system and its slip curvatures D (3D): blocks at
+/// `position` in N with direction n and curvature c, D = c (I − n nᵀ).
+struct NewtonSystem {
+    unknowns: Vec<usize>,
+    slip_curvature: Vec<(usize, [f64; 2], f64)>,
+}
+
+/// The factor of the last Newton system factorized in one solve, its non-stick unknowns, and
+/// the buffer it lives in (m × m, allocated at the first factorization of the solve).
 #[derive(Default)]
 struct NewtonCache {
     unknowns: Vec<usize>,
-    factor: Option<faer::linalg::solvers::Llt<f64>>,
+    buffer: Option<Mat<f64>>,
+    /// The leading n × n block of `buffer` holds the Cholesky factor L (lower triangle).
+    factor: Option<usize>,
 }
 
-/// y with A y = b by conjugate gradients preconditioned with the Cholesky factor of a nearby
-/// SPD matrix, from y = M⁻¹ b, until the recursive residual is ≤ [`NEWTON_PCG_TOLERANCE`] ‖b‖_∞;
-/// None unless that happens within [`NEWTON_PCG_ITERATIONS`] iterations and the recomputed
-/// residual is then within [`NEWTON_PCG_TOLERANCE`] ‖b‖_∞ + [`NEWTON_PCG_ROUNDING_ULPS`] ε ‖A‖_∞ ‖y‖_∞.
+impl NewtonCache {
+    /// Cholesky factor L of A = S_NN + D, in place in the buffer.
+    fn factorize(
+        &mut self,
+        matrix: MatRef<'_, f64>,
+        system: &NewtonSystem,
+    ) -> Result<MatRef<'_, f64>> {
+        let m = matrix.nrows();
+        let n = system.unknowns.len();
+        self.factor = None;
+        let buffer = self.buffer.get_or_insert_with(|| Mat::zeros(m, m));
+        let mut reduced = buffer.as_mut().submatrix_mut(0, 0, n, n);
+        // lower triangle of S_NN, column by column (contiguous columns of S)
+        for (j, &column_index) in system.unknowns.iter().enumerate() {
+            let column = matrix.col(column_index);
+            let mut target = reduced.rb_mut().col_mut(j);
+            for i in j..n {
+                target[i] = column[system.unknowns[i]];
+            }
+        }
+        for &(position, direction, curvature) in &system.slip_curvature {
+            for k in 0..2 {
+                for l in 0..=k {
+                    let identity = if k == l { 1.0 } else { 0.0 };
+                    reduced[(position + k, position + l)] +=
+                        curvature * (identity - direction[k] * direction[l]);
+                }
+            }
+        }
+        let parallelism = faer::get_global_parallelism();
+        let mut memory = MemBuffer::try_new(cholesky_in_place_scratch::<f64>(
+            n,
+            parallelism,
+            Default::default(),
+        ))
+        .map_err(|_| Error::LinearAlgebra {
+            context: "friction Newton system".into(),
+            message: format!(
+                "no memory for the workspace of a dense Cholesky factorization of size {n}"
+            ),
+        })?;
+        cholesky_in_place(
+            reduced.rb_mut(),
+            Default::default(),
+            parallelism,
+            MemStack::new(&mut memory),
+            Default::default(),
+        )
+        .map_err(|err| Error::LinearAlgebra {
+            context: "friction Newton system (S restricted to the non-stick blocks)".into(),
+            message: format!("Cholesky factorization failed ({err:?}): S is not positive definite"),
+        })?;
+        self.unknowns.clone_from(&system.unknowns);
+        self.factor = Some(n);
+        Ok(self.factor_ref().expect("just factorized"))
+    }
+
+    /// The factor L of the last factorized system, if any.
+    fn factor_ref(&self) -> Option<MatRef<'_, f64>> {
+        let n = self.factor?;
+        Some(self.buffer.as_ref()?.as_ref().submatrix(0, 0, n, n))
+    }
+}
+
+/// v ← (L Lᵀ)⁻¹ v with the lower triangle of `factor`.
+fn cholesky_solve(factor: MatRef<'_, f64>, v: &mut Col<f64>) {
+    solve_in_place_with_conj(
+        factor,
+        Conj::No,
+        v.as_mat_mut(),
+        Par::Seq,
+        MemStack::new(&mut MemBuffer::new(StackReq::EMPTY)),
+    );
+}
+
+/// y with A y = b by conjugate gradients preconditioned with the Cholesky factor L of a nearby
+/// SPD matrix, from y = (L Lᵀ)⁻¹ b, until the recursive residual is ≤ [`NEWTON_PCG_TOLERANCE`]
+/// ‖b‖_∞; None unless that happens within [`NEWTON_PCG_ITERATIONS`] iterations and the recomputed
+/// residual is then within [`NEWTON_PCG_TOLERANCE`] ‖b‖_∞ + [`NEWTON_PCG_ROUNDING_ULPS`] ε
+/// ‖A‖_∞ ‖y‖_∞. `apply(v, out)` sets out = A v; `matrix_norm` is ‖A‖_∞.
 fn preconditioned_cg(
-    matrix: MatRef<'_, f64>,
-    preconditioner: &faer::linalg::solvers::Llt<f64>,
+    apply: impl Fn(&Col<f64>, &mut Col<f64>),
+    factor: MatRef<'_, f64>,
+    matrix_norm: f64,
     rhs: &Col<f64>,
 ) -> Option<Col<f64>> {
     let norm = |v: &Col<f64>| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
     let target = NEWTON_PCG_TOLERANCE * norm(rhs);
-    let residual_of = |y: &Col<f64>| {
-        let mut residual = rhs.clone();
-        matmul(
-            residual.as_mat_mut(),
-            Accum::Add,
-            matrix,
-            y.as_mat(),
-            -1.0,
-            Par::Seq,
-        );
-        residual
-    };
-    let mut solution = rhs.clone();
-    preconditioner.solve_in_place(&mut solution);
-    let mut residual = residual_of(&solution);
-    let mut preconditioned = residual.clone();
-    preconditioner.solve_in_place(&mut preconditioned);
-    let mut direction = preconditioned.clone();
     let mut product = Col::<f64>::zeros(rhs.nrows());
+    let mut solution = rhs.clone();
+    cholesky_solve(factor, &mut solution);
+    apply(&solution, &mut product);
+    let mut residual = rhs - &product;
+    let mut preconditioned = residual.clone();
+    cholesky_solve(factor, &mut preconditioned);
+    let mut direction = preconditioned.clone();
     let mut rz = column_dot(&residual, &preconditioned);
     for _ in 0..NEWTON_PCG_ITERATIONS {
         if norm(&residual) <= target {
             // the recursive residual drifts from the true one: confirm
-            let true_residual = residual_of(&solution);
-            // ‖A‖_∞ as the largest column sum (A is symmetric; columns are contiguous)
-            let matrix_norm = (0..matrix.ncols())
-                .map(|j| matrix.col(j).iter().map(|a| a.abs()).sum::<f64>())
-                .fold(0.0_f64, f64::max);
+            apply(&solution, &mut product);
+            let true_residual = rhs - &product;
             let floor = NEWTON_PCG_ROUNDING_ULPS * f64::EPSILON * matrix_norm * norm(&solution);
             return (norm(&true_residual) <= target + floor).then_some(solution);
         }
-        matmul(
-            product.as_mat_mut(),
-            Accum::Replace,
-            matrix,
-            direction.as_mat(),
-            1.0,
-            Par::Seq,
-        );
+        apply(&direction, &mut product);
         let curvature = column_dot(&direction, &product);
         if !(curvature > 0.0 && rz.is_finite()) {
             return None;
@@ -529,7 +600,7 @@ fn preconditioned_cg(
         solution += alpha * &direction;
         residual -= alpha * &product;
         preconditioned.copy_from(&residual);
-        preconditioner.solve_in_place(&mut preconditioned);
+        cholesky_solve(factor, &mut preconditioned);
         let next = column_dot(&residual, &preconditioned);
         let beta = next / rz;
         rz = next;
@@ -759,17 +830,21 @@ impl<'a> Problem<'a> {
 
     /// The semismooth Newton point (primal form, see the module docs) predicted at x.
     ///
-    /// The reduced system is solved with a fresh dense Cholesky factorization, or, when the
-    /// previous Newton system of the same solve had the same non-stick unknowns (`cache`), by
-    /// conjugate gradients preconditioned with that system's factor: the two matrices then
-    /// differ only in the slip curvatures D, so a few O(n²) iterations replace an O(n³)
-    /// factorization (the second Newton step of a 3D step, n = 2178 at 32³ cells: one dense
-    /// factorization ≈ 3.4 Gflop). The iteration runs to a residual of
-    /// [`NEWTON_PCG_TOLERANCE`] relative to the right-hand side (3 to 9 iterations seen on the
-    /// 3D block at 16³); if it does not get there in [`NEWTON_PCG_ITERATIONS`], or the
-    /// recomputed residual is above its rounding floor, the system is factorized.
-    /// Nothing is kept from one solve to the next, so a step's result does not depend on the
-    /// steps before it.
+    /// The reduced system A y = b, A = S_NN + D on the non-stick unknowns N, is solved with a
+    /// dense Cholesky factorization of A, or, when the previous Newton system of the same solve
+    /// had the same non-stick unknowns (`cache`), by conjugate gradients preconditioned with
+    /// that system's factor: the two matrices then differ only in the slip curvatures D, so a
+    /// few O(m²) iterations replace an O(n³) factorization (n = 2112 on the 3D block at 32³
+    /// cells: one factorization ≈ 3.1 Gflop, 80 ms on one core). The iteration runs to a
+    /// residual of [`NEWTON_PCG_TOLERANCE`] relative to the right-hand side; if it does not get
+    /// there in [`NEWTON_PCG_ITERATIONS`], or the recomputed residual is above its rounding
+    /// floor, the system is factorized.
+    ///
+    /// A is never assembled for the iteration: A v = (S ṽ)_N + D v with ṽ the extension of v by
+    /// zeros, so a product reads S once (at 32³, S takes 36 MB: copying A cost as much as two
+    /// iterations). The factorization is done in place in the cache's buffer, allocated once
+    /// per solve. Nothing is kept from one solve to the next, so a step's result does not
+    /// depend on the steps before it.
     fn newton_point(
         &self,
         x: &[f64],
@@ -781,15 +856,17 @@ impl<'a> Problem<'a> {
         let sigma = self.sigma;
         // Unknowns of the reduced system (components of the non-stick blocks), its right-hand
         // side, and the slip blocks with their position, direction n and curvature.
-        let mut unknowns = Vec::with_capacity(x.len());
+        let mut system = NewtonSystem {
+            unknowns: Vec::with_capacity(x.len()),
+            slip_curvature: Vec::new(),
+        };
         let mut reduced_rhs = Vec::with_capacity(x.len());
-        let mut slip_curvature: Vec<(usize, [f64; 2], f64)> = Vec::new();
         let mut shifted = [0.0; 2];
         for (a, &w) in self.weights.iter().enumerate() {
             let range = a * group..(a + 1) * group;
             if w == 0.0 {
                 for i in range {
-                    unknowns.push(i);
+                    system.unknowns.push(i);
                     reduced_rhs.push(self.rhs[i]);
                 }
                 continue;
@@ -806,69 +883,47 @@ impl<'a> Problem<'a> {
             for k in 0..group {
                 direction[k] = shifted[k] / norm;
             }
-            let position = unknowns.len();
+            let position = system.unknowns.len();
             for (k, i) in range.enumerate() {
-                unknowns.push(i);
+                system.unknowns.push(i);
                 reduced_rhs.push(self.rhs[i] - w * direction[k]);
             }
             if group == 2 {
-                slip_curvature.push((position, direction, w / (norm - sigma * w)));
+                system
+                    .slip_curvature
+                    .push((position, direction, w / (norm - sigma * w)));
             }
         }
         out.fill(0.0);
-        let n = unknowns.len();
+        let n = system.unknowns.len();
         if n == 0 {
             return Ok(());
         }
-        let mut reduced = Mat::from_fn(n, n, |i, j| self.matrix[(unknowns[i], unknowns[j])]);
-        for &(position, direction, curvature) in &slip_curvature {
-            for k in 0..2 {
-                for l in 0..2 {
-                    let identity = if k == l { 1.0 } else { 0.0 };
-                    reduced[(position + k, position + l)] +=
-                        curvature * (identity - direction[k] * direction[l]);
-                }
-            }
-        }
         let rhs_column = Col::from_fn(n, |i| reduced_rhs[i]);
-        let preconditioned = match &cache.factor {
-            Some(factor) if cache.unknowns == unknowns => {
-                preconditioned_cg(reduced.as_ref(), factor, &rhs_column)
+        let apply = |v: &Col<f64>, product: &mut Col<f64>| self.apply_newton(&system, v, product);
+        let preconditioned = match cache.factor_ref() {
+            Some(factor) if cache.unknowns == system.unknowns => {
+                let norm = self.newton_matrix_norm(&system);
+                preconditioned_cg(apply, factor, norm, &rhs_column)
             }
             _ => None,
         };
         let solution = match preconditioned {
             Some(solution) => solution,
             None => {
-                let factor = reduced
-                    .llt(Side::Lower)
-                    .map_err(|err| Error::LinearAlgebra {
-                        context: "friction Newton system (S restricted to the non-stick blocks)"
-                            .into(),
-                        message: format!(
-                            "Cholesky factorization failed ({err:?}): S is not positive definite"
-                        ),
-                    })?;
+                let factor = cache.factorize(self.matrix, &system)?;
                 let mut solution = rhs_column.clone();
-                factor.solve_in_place(&mut solution);
+                cholesky_solve(factor, &mut solution);
                 // One step of iterative refinement with the same factorization.
-                let mut correction = rhs_column;
-                matmul(
-                    correction.as_mat_mut(),
-                    Accum::Add,
-                    reduced.as_ref(),
-                    solution.as_mat(),
-                    -1.0,
-                    Par::Seq,
-                );
-                factor.solve_in_place(&mut correction);
+                let mut correction = Col::<f64>::zeros(n);
+                apply(&solution, &mut correction);
+                let mut correction = &rhs_column - &correction;
+                cholesky_solve(factor, &mut correction);
                 solution += &correction;
-                cache.unknowns = unknowns.clone();
-                cache.factor = Some(factor);
                 solution
             }
         };
-        for (k, &i) in unknowns.iter().enumerate() {
+        for (k, &i) in system.unknowns.iter().enumerate() {
             out[i] = solution[k];
         }
         if out.iter().all(|v| v.is_finite()) {
@@ -878,6 +933,55 @@ impl<'a> Problem<'a> {
                 "friction Newton point (S is numerically singular)".into(),
             ))
         }
+    }
+
+    /// product = A v for the Newton system A = S_NN + D: (S ṽ)_N with ṽ = v on N, 0 elsewhere
+    /// (adding the products of exact zeros changes no bit of a finite sum), plus the slip
+    /// curvatures.
+    fn apply_newton(&self, system: &NewtonSystem, v: &Col<f64>, product: &mut Col<f64>) {
+        let m = self.dimension();
+        let n = system.unknowns.len();
+        let mut extended = vec![0.0; m];
+        for (k, &i) in system.unknowns.iter().enumerate() {
+            extended[i] = v[k];
+        }
+        let mut image = vec![0.0; m];
+        self.apply(&extended, &mut image);
+        for k in 0..n {
+            product[k] = image[system.unknowns[k]];
+        }
+        for &(position, direction, curvature) in &system.slip_curvature {
+            let along = direction[0] * v[position] + direction[1] * v[position + 1];
+            for k in 0..2 {
+                product[position + k] += curvature * (v[position + k] - direction[k] * along);
+            }
+        }
+    }
+
+    /// ‖A‖_∞ of the Newton system A = S_NN + D (largest row sum; S is symmetric, so the column
+    /// sums of its contiguous columns are used).
+    fn newton_matrix_norm(&self, system: &NewtonSystem) -> f64 {
+        let mut sums: Vec<f64> = system
+            .unknowns
+            .iter()
+            .map(|&j| {
+                let column = self.matrix.col(j);
+                system.unknowns.iter().map(|&i| column[i].abs()).sum()
+            })
+            .collect();
+        // within a slip block the entries are S + D: replace |S| by |S + D| there
+        for &(position, direction, curvature) in &system.slip_curvature {
+            for k in 0..2 {
+                for l in 0..2 {
+                    let identity = if k == l { 1.0 } else { 0.0 };
+                    let entry =
+                        self.matrix[(system.unknowns[position + k], system.unknowns[position + l])];
+                    let curved = entry + curvature * (identity - direction[k] * direction[l]);
+                    sums[position + k] += curved.abs() - entry.abs();
+                }
+            }
+        }
+        sums.into_iter().fold(0.0, f64::max)
     }
 
     /// Guaranteed bound min(Gershgorin, Frobenius) ≥ λ_max(S) and a power-iteration estimate.
@@ -1056,36 +1160,39 @@ impl<'a> Problem<'a> {
                 self.newton_point(x, &sx, &mut candidate, &mut newton_cache)?;
                 self.apply(&candidate, &mut candidate_image);
                 let slope = self.directional_derivative(x, &sx, &candidate);
+                // The full step first: by Armijo, or by the rounding clause (J flat to
+                // rounding, but the residual at least halves: near the solution the decrease
+                // of J falls below its rounding error).
+                let full_energy = self.energy(&candidate, &candidate_image);
+                let band = self.rounding_band(energy.magnitude + full_energy.magnitude);
+                let full_step = (slope < 0.0 && full_energy.value <= energy.value + ARMIJO * slope)
+                    || (full_energy.value <= energy.value + band
+                        && self.kkt(&candidate, &candidate_image).max() <= 0.5 * report.max());
                 let mut accepted = None;
-                if slope < 0.0 {
-                    let mut step = 1.0;
+                if full_step {
+                    trial.copy_from_slice(&candidate);
+                    trial_image.copy_from_slice(&candidate_image);
+                    accepted = Some((1.0, full_energy));
+                } else if slope < 0.0 {
+                    // Damped steps count only with a decrease of J beyond its rounding band:
+                    // an Armijo test whose slope is at the rounding level accepts noise, and a
+                    // damped step in place of a full one that would have converged stalls
+                    // Newton (it was the cause of most proximal-gradient bursts in 3D).
+                    let mut step = 0.5;
                     while step >= MIN_STEP {
                         for i in 0..m {
                             trial[i] = x[i] + step * (candidate[i] - x[i]);
                             trial_image[i] = sx[i] + step * (candidate_image[i] - sx[i]);
                         }
-                        if step == 1.0 {
-                            trial.copy_from_slice(&candidate);
-                            trial_image.copy_from_slice(&candidate_image);
-                        }
                         let trial_energy = self.energy(&trial, &trial_image);
-                        if trial_energy.value <= energy.value + ARMIJO * step * slope {
+                        let band = self.rounding_band(energy.magnitude + trial_energy.magnitude);
+                        if trial_energy.value <= energy.value + ARMIJO * step * slope
+                            && trial_energy.value < energy.value - band
+                        {
                             accepted = Some((step, trial_energy));
                             break;
                         }
                         step *= 0.5;
-                    }
-                }
-                if accepted.is_none() {
-                    // Rounding clause: J flat to rounding, but the residual at least halves.
-                    let full_energy = self.energy(&candidate, &candidate_image);
-                    let band = self.rounding_band(energy.magnitude + full_energy.magnitude);
-                    if full_energy.value <= energy.value + band
-                        && self.kkt(&candidate, &candidate_image).max() <= 0.5 * report.max()
-                    {
-                        trial.copy_from_slice(&candidate);
-                        trial_image.copy_from_slice(&candidate_image);
-                        accepted = Some((1.0, full_energy));
                     }
                 }
                 if let Some((step, trial_energy)) = accepted {
@@ -1146,6 +1253,7 @@ impl<'a> Problem<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use faer::Side;
     use proptest::prelude::*;
 
     use crate::test_random::SeededRandom as Generator;
@@ -1516,6 +1624,97 @@ mod tests {
         }
     }
 
+    /// A Newton step whose full length converges is taken at full length: near the solution
+    /// the Armijo test of a damped step compares values of J that differ by rounding only,
+    /// and accepting such a damped step in place of the full one stalled Newton into a burst
+    /// of proximal-gradient steps (about half of the solves below did so before the full step
+    /// was tried first).
+    #[test]
+    fn newton_converges_without_gradient_steps_from_near_the_solution() {
+        let mut bursts = Vec::new();
+        for seed in 0..24 {
+            let mut generator = Generator::new(100 + seed);
+            let kinds: Vec<Kind> = (0..30)
+                .map(|a| if a % 5 == 0 { Kind::Free } else { Kind::Slip })
+                .collect();
+            let manufactured = Manufactured::new(&kinds, 2, (0.5, 2.0), &mut generator);
+            let start: Vec<f64> = manufactured
+                .solution
+                .iter()
+                .map(|v| v + generator.range(-1e-3, 1e-3))
+                .collect();
+            let stats = manufactured.check(&kinds, start);
+            if stats.gradient_iterations > 0 {
+                bursts.push((seed, stats.newton_iterations, stats.gradient_iterations));
+            }
+        }
+        assert!(
+            bursts.is_empty(),
+            "(seed, Newton, gradient steps): {bursts:?}"
+        );
+    }
+
+    /// The Newton system as an operator, (S ṽ)_N + D v, and its factor in the cache's buffer
+    /// agree with the assembled matrix A = S_NN + D (stick blocks removed, slip curvatures on
+    /// their 2 × 2 blocks).
+    #[test]
+    fn newton_operator_and_factor_match_the_assembled_system() {
+        let mut generator = Generator::new(5);
+        let m = 24;
+        let matrix = random_spd(m, &mut generator);
+        let rhs = generator.vector(m, 1.0);
+        let weights = vec![1.0; m / 2];
+        let problem = Problem::new(matrix.as_ref(), &rhs, &weights, 2);
+        // blocks 0..12: 2 and 7 stick; the others slip with a curvature
+        let unknowns: Vec<usize> = (0..m).filter(|i| ![2, 7].contains(&(i / 2))).collect();
+        let n = unknowns.len();
+        let slip_curvature: Vec<(usize, [f64; 2], f64)> = (0..n / 2)
+            .map(|b| {
+                let angle = generator.range(0.0, 6.3);
+                (2 * b, [angle.cos(), angle.sin()], generator.range(0.1, 3.0))
+            })
+            .collect();
+        let system = NewtonSystem {
+            unknowns: unknowns.clone(),
+            slip_curvature: slip_curvature.clone(),
+        };
+        let mut assembled = Mat::from_fn(n, n, |i, j| matrix[(unknowns[i], unknowns[j])]);
+        for &(position, direction, curvature) in &slip_curvature {
+            for k in 0..2 {
+                for l in 0..2 {
+                    let identity = if k == l { 1.0 } else { 0.0 };
+                    assembled[(position + k, position + l)] +=
+                        curvature * (identity - direction[k] * direction[l]);
+                }
+            }
+        }
+        let v = Col::from_fn(n, |_| generator.range(-1.0, 1.0));
+        let mut product = Col::zeros(n);
+        problem.apply_newton(&system, &v, &mut product);
+        let expected = &assembled * &v;
+        let row_norm = (0..n)
+            .map(|i| (0..n).map(|j| assembled[(i, j)].abs()).sum::<f64>())
+            .fold(0.0, f64::max);
+        for i in 0..n {
+            assert!((product[i] - expected[i]).abs() <= 1e-14 * row_norm);
+        }
+        assert!((problem.newton_matrix_norm(&system) - row_norm).abs() <= 1e-14 * row_norm);
+        let mut cache = NewtonCache::default();
+        let factor = cache.factorize(matrix.as_ref(), &system).unwrap();
+        let lower = Mat::from_fn(n, n, |i, j| if i >= j { factor[(i, j)] } else { 0.0 });
+        let reconstructed = &lower * lower.transpose();
+        for i in 0..n {
+            for j in 0..n {
+                assert!((reconstructed[(i, j)] - assembled[(i, j)]).abs() <= 1e-13 * row_norm);
+            }
+        }
+        let mut solution = expected.clone();
+        cholesky_solve(cache.factor_ref().unwrap(), &mut solution);
+        for i in 0..n {
+            assert!((solution[i] - v[i]).abs() <= 1e-11);
+        }
+    }
+
     #[test]
     fn newton_system_is_solved_with_the_factor_of_a_nearby_one() {
         let mut generator = Generator::new(11);
@@ -1530,7 +1729,11 @@ mod tests {
         }
         let factor = nearby.llt(Side::Lower).unwrap();
         let rhs = Col::from_fn(n, |_| generator.range(-1.0, 1.0));
-        let solution = preconditioned_cg(matrix.as_ref(), &factor, &rhs)
+        let norm_of_matrix = (0..n)
+            .map(|i| (0..n).map(|j| matrix[(i, j)].abs()).sum::<f64>())
+            .fold(0.0, f64::max);
+        let apply = |v: &Col<f64>, out: &mut Col<f64>| out.copy_from(&matrix * v);
+        let solution = preconditioned_cg(apply, factor.L(), norm_of_matrix, &rhs)
             .expect("a nearby factor preconditions to convergence");
         let exact = matrix.llt(Side::Lower).unwrap().solve(&rhs);
         let residual = &rhs - &matrix * &solution;
@@ -1551,9 +1754,10 @@ mod tests {
                 0.0
             }
         });
-        let identity = Mat::<f64>::identity(n, n).llt(Side::Lower).unwrap();
+        let identity = Mat::<f64>::identity(n, n);
         let rhs = Col::from_fn(n, |i| 1.0 + i as f64);
-        assert!(preconditioned_cg(matrix.as_ref(), &identity, &rhs).is_none());
+        let apply = |v: &Col<f64>, out: &mut Col<f64>| out.copy_from(&matrix * v);
+        assert!(preconditioned_cg(apply, identity.as_ref(), 1e8, &rhs).is_none());
     }
 
     #[test]
