@@ -151,7 +151,9 @@ fn check(outcome: &Outcome, regime: Regime) -> Result<(), TestCaseError> {
         }
         Regime::AllSlip => prop_assert!(outcome.statuses.iter().all(|s| *s == ContactStatus::Slip)),
         Regime::Mixed => prop_assert!(
-            has(ContactStatus::Separated) && has(ContactStatus::Stick) && has(ContactStatus::Slip)
+            has(ContactStatus::Separated) && has(ContactStatus::Stick) && has(ContactStatus::Slip),
+            "statuses {:?}",
+            outcome.statuses
         ),
     }
     Ok(())
