@@ -171,7 +171,11 @@ proptest! {
         start_size in 0.0f64..10.0,
     ) {
         let regime = REGIMES[regime];
-        let outcome = solve_random(common::square(4), degree, saturating(strong), regime, seed, start_size);
+        // 6 cells: P1 has 6 contact nodes, two of them with the small friction bound of the
+        // mixed regime. With 4 cells the only one was held by its stuck neighbour in a rare
+        // case (statuses [Separated, Stick, Stick, Separated], seed 2590237106501329265, P1,
+        // strong law): a solution without a slip node, which the mixed check rejects.
+        let outcome = solve_random(common::square(6), degree, saturating(strong), regime, seed, start_size);
         check(&outcome, regime)?;
     }
 
