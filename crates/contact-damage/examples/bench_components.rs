@@ -23,8 +23,9 @@
 //!    not an M-matrix), k = 10⁻³, κ = 10⁻⁴, bounds 0 ≤ β ≤ 1, and five damage-like time steps
 //!    from β = ½: a source of ±1000 on two discs pushes β above 1 in one and below 0 in the
 //!    other; steps 4 and 5 move the discs by 0.01 and 0.02, so the active sets change. Each
-//!    repetition starts from a fresh solver ([`BoxQpSolver::new`]: symbolic analysis) so the
-//!    factorization cache is in the same state every time.
+//!    repetition starts from a fresh solver ([`BoxQpSolver::new`]: its multigrid hierarchy, or
+//!    with the active set method its symbolic analysis) so that every repetition starts from the
+//!    same state.
 //!
 //! The KKT residuals are recomputed outside the timed calls with the public residual functions
 //! ([`CondensedFriction::kkt_report`], [`box_qp_kkt_residual`]).
@@ -530,7 +531,7 @@ fn bench_box_qp(side: usize, repeats: usize) -> Result<Vec<Row>, String> {
     eprintln!("  {}: {:.3} s", case("new"), best(&new_times));
     let mut rows = vec![Row {
         component: "`BoxQpSolver::new`",
-        case: case("symbolic analysis"),
+        case: case("set-up (multigrid hierarchy)"),
         size: size.clone(),
         iterations: "—".into(),
         kkt: "—".into(),
@@ -646,13 +647,14 @@ fn render(command: &str, rows: &[Row], repeats: usize, load_start: &str) -> Stri
          33 × 33 nodes, Kronecker with a 2 × 2 SPD block), w_a = {FRICTION_WEIGHT}, r manufactured from a \
          known solution x* with stick and slip nodes; *iterations* = Newton systems (dense Cholesky) and \
          proximal-gradient steps; *KKT residual* = `kkt_report(x).max()` (tolerance 1e-12); *check* = \
-         max error against x* and the stick/slip node counts. *`BoxQpSolver::new`* = symbolic analysis of \
+         max error against x* and the stick/slip node counts. *`BoxQpSolver::new`* = the set-up for \
          A = M/k + κL on the grid (5-point L, consistent-type M with positive off-diagonals, k = \
          {QP_TIME_STEP:e}, κ = {QP_DIFFUSION:e}); *`BoxQpSolver::solve`* = one damage-like step with bounds \
          0 ≤ β ≤ 1 from the previous step's β (β = ½ before step 1), source ±{QP_SOURCE} on two discs of \
          radius 0.2, moved by 0.01 and 0.02 in steps 4 and 5; a fresh solver per repetition; \
-         *iterations* = active-set plus projected-Newton iterations (numeric Cholesky factorizations in \
-         the call); *KKT residual* = `box_qp_kkt_residual` (tolerance 1e-12); *check* = indices at the \
+         *iterations* = outer iterations of the default method (`BoxQpSettings::default()`, the \
+         truncated nonsmooth Newton multigrid) with the numeric Cholesky factorizations of the call \
+         (none with the multigrid); *KKT residual* = `box_qp_kkt_residual` (tolerance 1e-12); *check* = indices at the \
          lower / upper bound. Times: wall clock of the call alone (data construction and residual \
          checks excluded), best and worst of {repeats} runs on identical data.\n"
     );

@@ -207,7 +207,9 @@ impl Default for BoxQpSettings {
 /// Statistics of one call of [`BoxQpSolver::solve`].
 #[derive(Debug, Clone, Default)]
 pub struct BoxQpStats {
-    /// Iterations performed (active set steps plus projected Newton steps); 0 if the start
+    /// Outer iterations performed: with [`BoxQpMethod::MonotoneMultigrid`] one projected
+    /// Gauss–Seidel sweep, truncated coarse correction and line search each; with
+    /// [`BoxQpMethod::ActiveSet`] active set steps plus projected Newton steps. 0 if the start
     /// already satisfied the tolerance.
     pub iterations: usize,
     /// Numeric Cholesky factorizations of `A` computed in this call: 1 in the first call of
