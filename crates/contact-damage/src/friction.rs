@@ -65,8 +65,8 @@
 //! when J does not increase by more than a rounding band *and* the KKT residual at least halves.
 //! The full step is tried first, by both tests; a damped step (t < 1) must in addition lower J
 //! by more than the rounding band, since at the rounding level the Armijo test accepts noise
-//! and a damped step in place of a converging full one stalls Newton. A Newton step counts as *progress* when the full step was accepted and the KKT residual at
-//! least halved; otherwise a burst of accelerated proximal-gradient steps (FISTA with step 1/L,
+//! and a damped step in place of a converging full one stalls Newton. A Newton step counts as
+//! *progress* when the full step was accepted and the KKT residual at least halved; otherwise a burst of accelerated proximal-gradient steps (FISTA with step 1/L,
 //! made monotone by an adaptive restart whenever J would increase) is taken from the current,
 //! best, iterate and Newton is retried. L starts from a power-iteration estimate of λ_max(S) and
 //! is doubled (backtracking on the descent lemma) up to the guaranteed bound
@@ -476,6 +476,12 @@ struct NewtonSystem {
     slip_curvature: Vec<(usize, [f64; 2], f64)>,
 }
 
+/// Entry (k, l) of the slip curvature block c (I − n nᵀ).
+fn slip_entry(direction: [f64; 2], curvature: f64, k: usize, l: usize) -> f64 {
+    let identity = if k == l { 1.0 } else { 0.0 };
+    curvature * (identity - direction[k] * direction[l])
+}
+
 /// The factor of the last Newton system factorized in one solve, its non-stick unknowns, and
 /// the buffer it lives in (m × m, allocated at the first factorization of the solve).
 #[derive(Default)]
@@ -509,9 +515,7 @@ impl NewtonCache {
         for &(position, direction, curvature) in &system.slip_curvature {
             for k in 0..2 {
                 for l in 0..=k {
-                    let identity = if k == l { 1.0 } else { 0.0 };
-                    reduced[(position + k, position + l)] +=
-                        curvature * (identity - direction[k] * direction[l]);
+                    reduced[(position + k, position + l)] += slip_entry(direction, curvature, k, l);
                 }
             }
         }
@@ -973,10 +977,9 @@ impl<'a> Problem<'a> {
         for &(position, direction, curvature) in &system.slip_curvature {
             for k in 0..2 {
                 for l in 0..2 {
-                    let identity = if k == l { 1.0 } else { 0.0 };
                     let entry =
                         self.matrix[(system.unknowns[position + k], system.unknowns[position + l])];
-                    let curved = entry + curvature * (identity - direction[k] * direction[l]);
+                    let curved = entry + slip_entry(direction, curvature, k, l);
                     sums[position + k] += curved.abs() - entry.abs();
                 }
             }
