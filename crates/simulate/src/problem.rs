@@ -34,6 +34,8 @@
 //! every = 1                # save every N-th step (and the last one)
 //! dir = "results/NAME"     # default results/<name>, name = file stem unless `name` is given
 //! pictures = [2.5, 5.0]    # times of the damage pictures (SVG), default [T/2, T]
+//! vtu = "binary"           # arrays of the VTU files: "binary" (base64, ParaView's default) or
+//!                          # "ascii" (decimal text); both read back bitwise
 //! [scheme]
 //! contact = "explicit"     # p_ν at u_{n−1} as in (5.1); "implicit": at u_{n−1} + k v_n (stiff
 //!                          # contact at any step; the friction bound stays at u_{n−1})
@@ -71,6 +73,7 @@ use contact_damage::obstacle::BoxQpMethod;
 use contact_damage::scheme::{
     Data, Model, PointScalarField, PrescribedDisplacement, Problem, SchemeSettings,
 };
+use contact_damage::vtk::VtuEncoding;
 use contact_input::expr::compiled::with_registers;
 use contact_input::expr::{Expr, Program};
 use contact_input::file::{parse_expr, parse_toml};
@@ -249,6 +252,9 @@ pub struct OutputFile {
     /// default T/2 and T.
     #[serde(default)]
     pub pictures: Option<Vec<f64>>,
+    /// Encoding of the arrays of the VTU files: `"binary"` (default) or `"ascii"`.
+    #[serde(default)]
+    pub vtu: Option<String>,
 }
 
 /// `[solver]`: tolerances and iteration limits; missing entries keep the solver's defaults
@@ -370,6 +376,7 @@ impl Default for OutputFile {
             every: 1,
             dir: None,
             pictures: None,
+            vtu: None,
         }
     }
 }
@@ -390,6 +397,8 @@ pub struct ProblemSetup<const D: usize> {
     pub output_dir: PathBuf,
     /// Times of the damage pictures, each in (0, T].
     pub pictures: Vec<f64>,
+    /// Encoding of the arrays of the VTU files.
+    pub vtu: VtuEncoding,
     /// What a saved state must match to be resumed with this problem: `constants`, `laws`,
     /// `loads` (as canonical JSON) and `mesh` (SHA-256 of the vertices, cells and boundary
     /// parts of the built mesh, so that a changed Gmsh file is caught too). `dim`, `degree`,
@@ -607,6 +616,17 @@ impl<const D: usize> ProblemSetup<D> {
                 ),
             ));
         }
+        let vtu = match file.output.vtu.as_deref() {
+            None | Some("binary") => VtuEncoding::Binary,
+            Some("ascii") => VtuEncoding::Ascii,
+            Some(other) => {
+                return Err(problem_error(
+                    origin,
+                    "output.vtu",
+                    format!("must be \"binary\" or \"ascii\", got \"{other}\""),
+                ))
+            }
+        };
         let name = match &file.name {
             Some(name) => name.clone(),
             None => path
@@ -840,6 +860,7 @@ impl<const D: usize> ProblemSetup<D> {
             every: file.output.every,
             output_dir,
             pictures,
+            vtu,
             fingerprint,
             file,
             load_watch,

@@ -142,6 +142,7 @@ pub(crate) fn save_step<const D: usize>(
             name: "stress",
             values: &stress,
         }],
+        setup.vtu,
     )?;
     write_boundary_vtu(
         &dir.join(contact_file(n)),
@@ -169,6 +170,7 @@ pub(crate) fn save_step<const D: usize>(
                 values: &state.displacement,
             },
         ],
+        setup.vtu,
     )?;
     saved_steps.push(n);
     let entries = |name: fn(usize) -> String| -> Vec<(f64, String)> {

@@ -6,6 +6,7 @@
 
 mod common;
 
+use base64::Engine;
 use common::scratch;
 use simulate::problem::ProblemSetup;
 use simulate::run::{read_saved_state, RunOptions};
@@ -34,7 +35,8 @@ fn quiet(out: &Path) -> RunOptions {
     }
 }
 
-/// Values of the `DataArray` called `name` and its number of components.
+/// Values of the `DataArray` called `name` and its number of components: decimal text, or
+/// (the default) the UInt64 byte count and the little-endian Float64 values, base64-encoded.
 fn data_array(document: &roxmltree::Document, name: &str) -> (usize, Vec<f64>) {
     let node = document
         .descendants()
@@ -43,12 +45,29 @@ fn data_array(document: &roxmltree::Document, name: &str) -> (usize, Vec<f64>) {
     let components = node
         .attribute("NumberOfComponents")
         .map_or(1, |c| c.parse().unwrap());
-    let values = node
-        .text()
-        .unwrap_or("")
-        .split_whitespace()
-        .map(|v| v.parse().unwrap())
-        .collect();
+    let text = node.text().unwrap_or("");
+    let values = match node.attribute("format") {
+        Some("ascii") => text
+            .split_whitespace()
+            .map(|v| v.parse().unwrap())
+            .collect(),
+        Some("binary") => {
+            assert_eq!(node.attribute("type"), Some("Float64"), "{name}");
+            let bytes = base64::engine::general_purpose::STANDARD
+                .decode(text.trim())
+                .unwrap();
+            let (header, data) = bytes.split_at(8);
+            assert_eq!(
+                u64::from_le_bytes(header.try_into().unwrap()) as usize,
+                data.len(),
+                "{name}: byte count"
+            );
+            data.chunks_exact(8)
+                .map(|b| f64::from_le_bytes(b.try_into().unwrap()))
+                .collect()
+        }
+        other => panic!("{name}: format {other:?}"),
+    };
     (components, values)
 }
 
@@ -537,11 +556,64 @@ fn error_of(from: &str, to: &str) -> String {
     }
 }
 
+/// `output.vtu = "ascii"` writes the same arrays as the default binary encoding, bitwise.
+#[test]
+fn text_and_binary_vtu_files_hold_the_same_arrays() {
+    let dir = scratch("vtu-encodings");
+    let binary_problem = tiny_example(&dir);
+    let text = std::fs::read_to_string(&binary_problem)
+        .unwrap()
+        .replace("every = 4", "every = 4\nvtu = \"ascii\"");
+    let ascii_problem = dir.join("tiny_ascii.toml");
+    std::fs::write(&ascii_problem, text).unwrap();
+    let (binary_out, ascii_out) = (dir.join("binary"), dir.join("ascii"));
+    simulate::run_file(&binary_problem, &quiet(&binary_out)).unwrap();
+    simulate::run_file(&ascii_problem, &quiet(&ascii_out)).unwrap();
+    for (file, names) in [
+        (
+            "solution_000012.vtu",
+            &["displacement", "velocity", "damage", "stress"][..],
+        ),
+        (
+            "contact_000012.vtu",
+            &["status", "normal_pressure", "tangential_traction"][..],
+        ),
+    ] {
+        let read = |out: &Path| std::fs::read_to_string(out.join(file)).unwrap();
+        let (binary_text, ascii_text) = (read(&binary_out), read(&ascii_out));
+        assert!(
+            binary_text.contains("format=\"binary\"") && !binary_text.contains("format=\"ascii\"")
+        );
+        assert!(
+            ascii_text.contains("format=\"ascii\"") && !ascii_text.contains("format=\"binary\"")
+        );
+        let binary = roxmltree::Document::parse(&binary_text).unwrap();
+        let ascii = roxmltree::Document::parse(&ascii_text).unwrap();
+        assert_eq!(piece_sizes(&binary), piece_sizes(&ascii));
+        for name in names.iter().chain(&["Points"]) {
+            let bits = |document| {
+                let (components, values) = data_array(document, name);
+                (
+                    components,
+                    values.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+                )
+            };
+            assert_eq!(bits(&binary), bits(&ascii), "{file}: {name}");
+        }
+    }
+    std::fs::remove_dir_all(dir).unwrap();
+}
+
 #[test]
 fn bad_problem_files_name_the_key() {
     for (from, to, expected) in [
         ("[output]", "[outptu]", "unknown field `outptu`"),
         ("every = 10", "every = 0", "key `output.every`"),
+        (
+            "every = 10",
+            "every = 10\nvtu = \"hdf5\"",
+            "key `output.vtu`: must be \"binary\" or \"ascii\", got \"hdf5\"",
+        ),
         (
             "every = 10",
             "every = 10\npictures = [2.5, 6.0]",
