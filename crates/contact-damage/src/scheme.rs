@@ -452,12 +452,15 @@ impl<const D: usize> Simulation<D> {
     /// The step limit of the explicit terms of (5.1) at the current state ([`crate::stability`]):
     /// with the paper's explicit normal compliance the elastic and contact stiffness, with the
     /// implicit one the elastic stiffness only. A run with k above it is unstable.
-    pub fn step_limit(&self) -> Result<StepLimit> {
+    /// The factor of the viscous operator it solves with is the one the following linear steps
+    /// use ([`VelocityOperator::viscous_factor`]).
+    pub fn step_limit(&mut self) -> Result<StepLimit> {
+        let penetrations = self.penetrations(&self.gap_at(self.state.time)?);
         step_limit(
-            &self.velocity,
+            &mut self.velocity,
             self.problem.model.elasticity.as_ref(),
             self.problem.model.contact.as_ref(),
-            &self.penetrations(&self.gap_at(self.state.time)?),
+            &penetrations,
             self.problem.settings.contact == ContactTreatment::Explicit,
         )
     }

@@ -28,7 +28,7 @@
 
 use crate::assembly::{assemble_cell_vector, field_strain, physical_gradients};
 use crate::laws::{ContactLaw, Elasticity, Tensor};
-use crate::linalg::{multiply, CholeskySolver};
+use crate::linalg::multiply;
 use crate::quadrature::QuadratureRule;
 use crate::space::Tabulation;
 use crate::velocity::VelocityOperator;
@@ -57,17 +57,17 @@ const MAX_ITERATIONS: usize = 200;
 /// documentation). `penetrations` are the current r_a = u_ν(a) − g(a) at the contact nodes;
 /// `include_contact` = false leaves C out (implicit normal compliance).
 pub fn step_limit<const D: usize>(
-    operator: &VelocityOperator<D>,
+    operator: &mut VelocityOperator<D>,
     elasticity: &dyn Elasticity<D>,
     contact_law: &dyn ContactLaw,
     penetrations: &[f64],
     include_contact: bool,
 ) -> Result<StepLimit> {
+    operator.factorize_viscous()?;
+    let operator = &*operator;
+    let (viscous, solver) = (operator.factored_matrix(), operator.solver());
     let space = operator.space();
     let contact = operator.contact();
-    let viscous = operator.assemble(None)?;
-    let mut solver = CholeskySolver::analyse(&viscous, "viscous operator (step limit)")?;
-    solver.factorize(&viscous)?;
     let tabulation = Tabulation::cell_rule(
         space.element(),
         &QuadratureRule::<D>::simplex(2 * space.degree() - 2),
@@ -126,7 +126,7 @@ pub fn step_limit<const D: usize>(
     while iterations < MAX_ITERATIONS {
         iterations += 1;
         let system = operator.to_system(&x);
-        let hx = multiply(&viscous, &system);
+        let hx = multiply(viscous, &system);
         let norm = dot(&system, &hx).sqrt();
         if norm == 0.0 || !norm.is_finite() {
             break;
@@ -139,7 +139,7 @@ pub fn step_limit<const D: usize>(
             break;
         }
         let next = solver.solve(&b)?;
-        let scale = dot(&next, &multiply(&viscous, &next)).sqrt();
+        let scale = dot(&next, &multiply(viscous, &next)).sqrt();
         if scale == 0.0 || !scale.is_finite() {
             break;
         }

@@ -370,6 +370,29 @@ impl<const D: usize> VelocityOperator<D> {
         &self.solver
     }
 
+    /// Makes the held factor that of the viscous operator H (the matrix of a linear step,
+    /// [`Self::assemble`]`(None)`), factorizing it now if the operator holds none or holds a
+    /// Newton tangent: the step limit ([`crate::stability`]) solves with it before the first
+    /// step, which then reuses it. Afterwards [`Self::solver`] solves with H and
+    /// [`Self::factored_matrix`] is H.
+    pub fn factorize_viscous(&mut self) -> Result<()> {
+        if !self.matrix_is_plain {
+            self.matrix = self.assemble(None)?;
+            self.matrix_is_plain = true;
+            self.linearized_at = None;
+            self.factorize()
+        } else if !self.solver.is_factorized() {
+            self.factorize()
+        } else {
+            Ok(())
+        }
+    }
+
+    /// The matrix of the held factor: H, or the Newton tangent of the last nonlinear step.
+    pub fn factored_matrix(&self) -> &SparseColMat<usize, f64> {
+        &self.matrix
+    }
+
     /// The finite element space.
     pub fn space(&self) -> &Arc<LagrangeSpace<D>> {
         &self.space

@@ -143,7 +143,7 @@ fn records_contact_history(n: usize, every: usize, steps: usize) -> bool {
 /// that grows without bound or a contact force that cycles, with every step exact.
 fn check_step_limit<const D: usize>(
     setup: &ProblemSetup<D>,
-    simulation: &Simulation<D>,
+    simulation: &mut Simulation<D>,
 ) -> Result<StepLimit, InputError> {
     let limit = simulation.step_limit()?;
     let step = simulation.time_step();
@@ -220,14 +220,14 @@ pub fn run<const D: usize>(
         let resumed = resume(setup, &mut simulation, &dir, contact.len())?;
         saved_steps = resumed.saved_steps;
         sums = resumed.sums;
-        step_limit = check_step_limit(setup, &simulation)?;
+        step_limit = check_step_limit(setup, &mut simulation)?;
         truncate_history(&history_path, resumed.step, &header)?;
         let recorded: Vec<usize> = (1..=resumed.step)
             .filter(|&n| records_contact_history(n, setup.every, steps))
             .collect();
         truncate_contact_history(&contact_history_path, &recorded, contact_line.indices.len())?;
     } else {
-        step_limit = check_step_limit(setup, &simulation)?;
+        step_limit = check_step_limit(setup, &mut simulation)?;
         std::fs::create_dir_all(&dir).map_err(io_error("creating directory", &dir))?;
         if options.overwrite {
             folder::remove_output(&dir)?;

@@ -438,7 +438,7 @@ pub fn run_one<const D: usize>(
             tracker.observe(report.space, report.state);
             Ok(())
         })
-        .map_err(|error| explain_failure(case, &simulation, cells, error))?;
+        .map_err(|error| explain_failure(case, &mut simulation, cells, error))?;
     let unknowns = simulation.velocity_operator().size();
     Ok(RunResult {
         cells,
@@ -466,7 +466,7 @@ pub fn reference_states<const D: usize>(
             states.push(report.state.clone());
             Ok(())
         })
-        .map_err(|error| explain_failure(case, &simulation, cells, error))?;
+        .map_err(|error| explain_failure(case, &mut simulation, cells, error))?;
     Ok(states)
 }
 
@@ -476,7 +476,7 @@ pub fn reference_states<const D: usize>(
 /// converges) follows as the symptom. Other failures pass unchanged.
 fn explain_failure<const D: usize>(
     case: &Case<D>,
-    simulation: &Simulation<D>,
+    simulation: &mut Simulation<D>,
     cells: usize,
     error: contact_damage::Error,
 ) -> VerifyError {
