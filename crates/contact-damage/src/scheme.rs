@@ -453,7 +453,7 @@ impl<const D: usize> Simulation<D> {
     /// with the paper's explicit normal compliance the elastic and contact stiffness, with the
     /// implicit one the elastic stiffness only. A run with k above it is unstable.
     /// The factor of the viscous operator it solves with is the one the following linear steps
-    /// use ([`VelocityOperator::viscous_factor`]).
+    /// use ([`VelocityOperator::factorize_viscous`]).
     pub fn step_limit(&mut self) -> Result<StepLimit> {
         let penetrations = self.penetrations(&self.gap_at(self.state.time)?);
         step_limit(
