@@ -555,6 +555,21 @@ pub trait Elasticity<const D: usize>: Send + Sync {
     fn damage_derivative(&self, strain: &Tensor<D>, damage: f64) -> Tensor<D>;
     /// Checks the parameters against (3.5).
     fn validate(&self) -> Result<()>;
+    /// Σ_q w_q G(ε, β_q): the stress integrated over a cell on which the strain is constant
+    /// (P1 on an affine simplex) from the damage values and weights of its quadrature points.
+    /// A law linear in its damage overrides it with one evaluation of G per cell.
+    fn weighted_stress_sum(
+        &self,
+        strain: &Tensor<D>,
+        damages: &[f64],
+        weights: &[f64],
+    ) -> Tensor<D> {
+        let mut sum = Tensor::<D>::zeros();
+        for (&damage, &weight) in damages.iter().zip(weights) {
+            sum += self.stress(strain, damage) * weight;
+        }
+        sum
+    }
 }
 
 /// G(ε, β) = β̄ (2μ ε + λ tr(ε) I) with β̄ = min(max(β, 0), 1) (damage clamped to [0, 1] inside G,
@@ -577,6 +592,19 @@ impl DamagedHooke {
 impl<const D: usize> Elasticity<D> for DamagedHooke {
     fn stress(&self, strain: &Tensor<D>, damage: f64) -> Tensor<D> {
         self.undamaged(strain) * damage.clamp(0.0, 1.0)
+    }
+    /// G is linear in β̄: Σ_q w_q G(ε, β_q) = (Σ_q w_q β̄_q) (2μ ε + λ tr(ε) I).
+    fn weighted_stress_sum(
+        &self,
+        strain: &Tensor<D>,
+        damages: &[f64],
+        weights: &[f64],
+    ) -> Tensor<D> {
+        let mut weighted_damage = 0.0;
+        for (&damage, &weight) in damages.iter().zip(weights) {
+            weighted_damage += weight * damage.clamp(0.0, 1.0);
+        }
+        self.undamaged(strain) * weighted_damage
     }
     fn strain_derivative(
         &self,
@@ -1290,7 +1318,48 @@ mod tests {
         assert!(message.contains("spread over more than 10⁸"), "{message}");
     }
 
+    /// [`DamagedHooke`] without its own `weighted_stress_sum`: the trait's point-by-point sum.
+    struct PointwiseHooke(DamagedHooke);
+
+    impl Elasticity<3> for PointwiseHooke {
+        fn stress(&self, strain: &Tensor<3>, damage: f64) -> Tensor<3> {
+            self.0.stress(strain, damage)
+        }
+        fn strain_derivative(
+            &self,
+            strain: &Tensor<3>,
+            damage: f64,
+            direction: &Tensor<3>,
+        ) -> Tensor<3> {
+            self.0.strain_derivative(strain, damage, direction)
+        }
+        fn damage_derivative(&self, strain: &Tensor<3>, damage: f64) -> Tensor<3> {
+            Elasticity::<3>::damage_derivative(&self.0, strain, damage)
+        }
+        fn validate(&self) -> Result<()> {
+            Elasticity::<3>::validate(&self.0)
+        }
+    }
+
     proptest::proptest! {
+        #[test]
+        fn damaged_hooke_cell_stress_equals_the_sum_of_point_stresses(
+            entries in proptest::collection::vec(-1.0f64..1.0, 9),
+            damages in proptest::collection::vec(-0.5f64..1.5, 1..12),
+            scale in 0.01f64..1.0,
+        ) {
+            let law = DamagedHooke { shear_modulus: 1.3, lame_lambda: -0.4 };
+            let strain = Tensor::<3>::from_column_slice(&entries);
+            let strain = (strain + strain.transpose()) * 0.5;
+            let weights: Vec<f64> = (0..damages.len()).map(|q| scale * (1.0 + q as f64)).collect();
+            let cell = law.weighted_stress_sum(&strain, &damages, &weights);
+            let points = PointwiseHooke(law).weighted_stress_sum(&strain, &damages, &weights);
+            // the same sum in another order: a few roundings of the largest term apart
+            let size = law.undamaged(&strain).norm() * weights.iter().sum::<f64>();
+            proptest::prop_assert!((cell - points).norm() <= 1e-14 * size.max(1e-300),
+                "{} vs {}", cell, points);
+        }
+
         #[test]
         fn potential_viscosity_tangent_is_symmetric_and_strongly_monotone(
             entries in proptest::collection::vec(-1.0f64..1.0, 12),

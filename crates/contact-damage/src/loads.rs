@@ -33,6 +33,8 @@ pub struct LoadQuadrature<const D: usize> {
     points: Vec<[f64; D]>,
     /// Reference weight × |det J| of every point.
     weights: Vec<f64>,
+    /// The basis values of the cell rule node-major: φ_a(ξ_q) at `a * points + q`.
+    values_by_node: Vec<f64>,
     /// Points on Γ2 (traction f2).
     neumann: FacetPoints<D>,
     /// Points on Γ3 (extra traction f3).
@@ -57,6 +59,10 @@ impl<const D: usize> LoadQuadrature<D> {
                 weights.push(w * geometry.det);
             }
         }
+        let (nodes, nq) = (tabulation.nodes, tabulation.len());
+        let values_by_node = (0..nodes * nq)
+            .map(|i| tabulation.values[(i % nq) * nodes + i / nq])
+            .collect();
         let mesh = space.mesh();
         let rule = FacetRule::new(D, degree);
         Self {
@@ -70,6 +76,134 @@ impl<const D: usize> LoadQuadrature<D> {
             tabulation,
             points,
             weights,
+            values_by_node,
+        }
+    }
+
+    /// The element load vectors of the cells `first..` filling `out` (`(D + 1)` values per
+    /// local node: the velocity load, then the damage source), one batch of field evaluations
+    /// over all quadrature points of the chunk.
+    #[allow(clippy::too_many_arguments)]
+    fn cell_chunk(
+        &self,
+        space: &LagrangeSpace<D>,
+        model: &Model<D>,
+        data: &Data<D>,
+        time: f64,
+        state: &State,
+        first: usize,
+        out: &mut [f64],
+    ) {
+        let elasticity = model.elasticity.as_ref();
+        let damage_source = model.damage_source.as_ref();
+        let (displacement, damage) = (&state.displacement, &state.damage);
+        let tab = &self.tabulation;
+        let n = tab.nodes;
+        let nq = tab.len();
+        let local = n * (D + 1);
+        // P1 on affine simplices: the basis gradients, hence ε(u_{n−1}), are constant per cell.
+        let constant_gradients = space.degree() == 1;
+        let count = out.len() / local;
+        let range = first * nq..(first + count) * nq;
+        let points = &self.points[range.clone()];
+        let weights = &self.weights[range];
+        let mut force = Vec::new();
+        if let Some(f) = &data.body_force {
+            force = vec![[0.0; D]; points.len()];
+            f.evaluate(points, time, &mut force);
+        }
+        let mut supply = Vec::new();
+        if let Some(q) = &data.damage_supply {
+            supply = vec![0.0; points.len()];
+            q.evaluate(points, time, &mut supply);
+        }
+        // ε(u_{n−1}) and β_{n−1} at every point of the chunk, then φ over the batch.
+        let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
+        let mut strains = Vec::with_capacity(points.len());
+        let mut betas = Vec::with_capacity(points.len());
+        let mut point_grads = Vec::with_capacity(points.len() * n);
+        let mut nodal_damage = [0.0; crate::element::MAX_CELL_NODES];
+        for c in 0..count {
+            let cell = first + c;
+            let geometry = space.geometry(cell);
+            let nodes = space.cell_nodes(cell);
+            for (value, &node) in nodal_damage.iter_mut().zip(nodes) {
+                *value = damage[node];
+            }
+            let mut strain = Tensor::<D>::zeros();
+            for q in 0..nq {
+                if q == 0 || !constant_gradients {
+                    physical_gradients(geometry, tab, q, &mut grads);
+                    strain = field_strain(nodes, &grads[..n], displacement);
+                    point_grads.extend_from_slice(&grads[..n]);
+                }
+                let values = &tab.values[q * n..(q + 1) * n];
+                strains.push(strain);
+                // β_{n−1} at the point
+                let mut beta = 0.0;
+                for (b, v) in nodal_damage[..n].iter().zip(values) {
+                    beta += b * v;
+                }
+                betas.push(beta);
+            }
+        }
+        let mut sources = vec![0.0; points.len()];
+        damage_source.source_batch(&strains, &betas, &mut sources);
+        let mut weighted_sources = vec![0.0; nq];
+        for (c, out) in out.chunks_mut(local).enumerate() {
+            let cell_points = c * nq..(c + 1) * nq;
+            if constant_gradients {
+                // P1: the strain and the basis gradients are constant on the cell, so
+                // the stress is integrated first (one evaluation of G for a law linear
+                // in β) and contracted with each gradient once.
+                let grads = &point_grads[c * n..(c + 1) * n];
+                let stress = elasticity.weighted_stress_sum(
+                    &strains[c * nq],
+                    &betas[cell_points.clone()],
+                    &weights[cell_points.clone()],
+                );
+                for (a, grad) in grads.iter().enumerate() {
+                    let internal = stress * grad;
+                    for i in 0..D {
+                        out[a * (D + 1) + i] -= internal[i];
+                    }
+                }
+            }
+            for q in 0..nq {
+                let p = c * nq + q;
+                let values = &tab.values[q * n..(q + 1) * n];
+                let weight = weights[p];
+                if !constant_gradients {
+                    let grads = &point_grads[p * n..(p + 1) * n];
+                    let stress = elasticity.stress(&strains[p], betas[p]);
+                    for (a, grad) in grads.iter().enumerate() {
+                        let internal = stress * grad;
+                        for i in 0..D {
+                            out[a * (D + 1) + i] -= weight * internal[i];
+                        }
+                    }
+                }
+                if !force.is_empty() {
+                    for (a, value) in values.iter().enumerate() {
+                        for i in 0..D {
+                            out[a * (D + 1) + i] += weight * (force[p][i] * value);
+                        }
+                    }
+                }
+            }
+            // ⟨φ + q, φ_a⟩ on the cell: the weighted sources of its points, one sum per node.
+            for (q, weighted) in weighted_sources.iter_mut().enumerate() {
+                let p = c * nq + q;
+                let supplied = if supply.is_empty() { 0.0 } else { supply[p] };
+                *weighted = weights[p] * (sources[p] + supplied);
+            }
+            for (a, node_values) in self.values_by_node.chunks_exact(nq).enumerate() {
+                let mut sum = 0.0;
+                for (weighted, value) in weighted_sources.iter().zip(node_values) {
+                    sum += weighted * value;
+                }
+                out[a * (D + 1) + D] += sum;
+            }
         }
     }
 
@@ -89,117 +223,14 @@ impl<const D: usize> LoadQuadrature<D> {
         time: f64,
         state: &State,
     ) -> (Vec<f64>, Vec<f64>) {
-        let elasticity = model.elasticity.as_ref();
-        let damage_source = model.damage_source.as_ref();
-        let (displacement, damage) = (&state.displacement, &state.damage);
         let tab = &self.tabulation;
-        let n = tab.nodes;
-        let nq = tab.len();
-        let local = n * (D + 1);
-        // P1 on affine simplices: the basis gradients, hence ε(u_{n−1}), are constant per cell.
-        let constant_gradients = space.degree() == 1;
+        let local = tab.nodes * (D + 1);
         let mut locals = vec![0.0; space.mesh().num_cells() * local];
         locals
             .par_chunks_mut(CHUNK_CELLS * local)
             .enumerate()
             .for_each(|(chunk, out)| {
-                let first = chunk * CHUNK_CELLS;
-                let count = out.len() / local;
-                let range = first * nq..(first + count) * nq;
-                let points = &self.points[range.clone()];
-                let weights = &self.weights[range];
-                let mut force = Vec::new();
-                if let Some(f) = &data.body_force {
-                    force = vec![[0.0; D]; points.len()];
-                    f.evaluate(points, time, &mut force);
-                }
-                let mut supply = Vec::new();
-                if let Some(q) = &data.damage_supply {
-                    supply = vec![0.0; points.len()];
-                    q.evaluate(points, time, &mut supply);
-                }
-                // ε(u_{n−1}) and β_{n−1} at every point of the chunk, then φ over the batch.
-                let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
-                let mut strains = Vec::with_capacity(points.len());
-                let mut betas = Vec::with_capacity(points.len());
-                let mut point_grads = Vec::with_capacity(points.len() * n);
-                let mut nodal_damage = [0.0; crate::element::MAX_CELL_NODES];
-                for c in 0..count {
-                    let cell = first + c;
-                    let geometry = space.geometry(cell);
-                    let nodes = space.cell_nodes(cell);
-                    for (value, &node) in nodal_damage.iter_mut().zip(nodes) {
-                        *value = damage[node];
-                    }
-                    let mut strain = Tensor::<D>::zeros();
-                    for q in 0..nq {
-                        if q == 0 || !constant_gradients {
-                            physical_gradients(geometry, tab, q, &mut grads);
-                            strain = field_strain(nodes, &grads[..n], displacement);
-                            point_grads.extend_from_slice(&grads[..n]);
-                        }
-                        let values = &tab.values[q * n..(q + 1) * n];
-                        strains.push(strain);
-                        // β_{n−1} at the point
-                        let mut beta = 0.0;
-                        for (b, v) in nodal_damage[..n].iter().zip(values) {
-                            beta += b * v;
-                        }
-                        betas.push(beta);
-                    }
-                }
-                let mut sources = vec![0.0; points.len()];
-                damage_source.source_batch(&strains, &betas, &mut sources);
-                for (c, out) in out.chunks_mut(local).enumerate() {
-                    // P1: the basis gradients are constant on the cell, so the stresses are
-                    // integrated first and contracted with each gradient once.
-                    let mut integrated_stress = Tensor::<D>::zeros();
-                    for q in 0..nq {
-                        let p = c * nq + q;
-                        let grads = if constant_gradients {
-                            &point_grads[c * n..(c + 1) * n]
-                        } else {
-                            &point_grads[p * n..(p + 1) * n]
-                        };
-                        let values = &tab.values[q * n..(q + 1) * n];
-                        let (strain, beta) = (strains[p], betas[p]);
-                        let weight = weights[p];
-                        let stress = elasticity.stress(&strain, beta);
-                        let mut source = sources[p];
-                        if !supply.is_empty() {
-                            source += supply[p];
-                        }
-                        if constant_gradients {
-                            integrated_stress += stress * weight;
-                        }
-                        for a in 0..n {
-                            if !constant_gradients {
-                                let internal = stress * grads[a];
-                                for i in 0..D {
-                                    let mut value = -internal[i];
-                                    if !force.is_empty() {
-                                        value += force[p][i] * values[a];
-                                    }
-                                    out[a * (D + 1) + i] += weight * value;
-                                }
-                            } else if !force.is_empty() {
-                                for i in 0..D {
-                                    out[a * (D + 1) + i] += weight * (force[p][i] * values[a]);
-                                }
-                            }
-                            out[a * (D + 1) + D] += weight * source * values[a];
-                        }
-                    }
-                    if constant_gradients {
-                        let grads = &point_grads[c * n..(c + 1) * n];
-                        for a in 0..n {
-                            let internal = integrated_stress * grads[a];
-                            for i in 0..D {
-                                out[a * (D + 1) + i] -= internal[i];
-                            }
-                        }
-                    }
-                }
+                self.cell_chunk(space, model, data, time, state, chunk * CHUNK_CELLS, out)
             });
         let mut velocity_load = vec![0.0; space.num_nodes() * D];
         let mut damage_source = vec![0.0; space.num_nodes()];
