@@ -80,6 +80,21 @@ pub fn write_json_atomic<T: serde::Serialize>(path: &Path, value: &T) -> Result<
     write_atomic(path, &bytes)
 }
 
+/// Serialize `value` as compact JSON (no indentation, a final newline) and write it
+/// atomically: for machine-read files with long arrays, such as a restart file, where the
+/// indentation of [`write_json_atomic`] (one line per number) would double the size.
+pub fn write_json_compact_atomic<T: serde::Serialize>(
+    path: &Path,
+    value: &T,
+) -> Result<(), InputError> {
+    let mut bytes = serde_json::to_vec(value).map_err(|error| InputError::Serialize {
+        path: path.to_path_buf(),
+        message: error.to_string(),
+    })?;
+    bytes.push(b'\n');
+    write_atomic(path, &bytes)
+}
+
 /// Serialize `rows` as CSV (one record per row, header from the field names of the first row,
 /// as the `csv` crate does for structs) and write it atomically.
 ///
@@ -165,6 +180,21 @@ mod tests {
         assert!(text.ends_with('\n'));
         let back: Vec<Row> = serde_json::from_str(&text).unwrap();
         assert_eq!(back, rows);
+    }
+
+    #[test]
+    fn compact_json_round_trips_bitwise_on_one_line() {
+        let scratch = tempfile::tempdir().unwrap();
+        let path = scratch.path().join("state.json");
+        // awkward values: the shortest round-trip form must give back the same bits
+        let values = vec![0.1 + 0.2, -0.0, 5e-324, f64::MAX, 1.0 / 3.0, -2.5e-300];
+        write_json_compact_atomic(&path, &values).unwrap();
+        let text = fs::read_to_string(&path).unwrap();
+        assert_eq!(text.lines().count(), 1, "not compact: {text}");
+        assert!(text.ends_with('\n'));
+        let back: Vec<f64> = serde_json::from_str(&text).unwrap();
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&back), bits(&values));
     }
 
     #[test]

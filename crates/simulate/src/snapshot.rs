@@ -12,7 +12,7 @@ use contact_damage::scheme::State;
 use contact_damage::space::{strain, LagrangeSpace};
 use contact_damage::velocity::VelocitySolution;
 use contact_damage::vtk::{write_boundary_vtu, write_pvd, write_vtu, CellData, PointData};
-use contact_input::output::write_json_atomic;
+use contact_input::output::write_json_compact_atomic;
 use contact_input::InputError;
 use std::path::Path;
 
@@ -181,7 +181,7 @@ pub(crate) fn save_step<const D: usize>(
     };
     write_pvd(&dir.join("solution.pvd"), &entries(solution_file))?;
     write_pvd(&dir.join("contact.pvd"), &entries(contact_file))?;
-    write_json_atomic(
+    write_json_compact_atomic(
         &state_path,
         &SavedState {
             name: setup.name.clone(),
