@@ -166,7 +166,7 @@ fn check_step_limit<const D: usize>(
         )
     };
     Err(InputError::InvalidInput(format!(
-        "{}: the time step k = final_time/steps = {}/{} = {step:e} exceeds the stability limit k_max = {:.3e} of the explicit terms of (5.1) ({terms} at u_(n−1); λ_max(H⁻¹B) = {:.3e} by {} power iterations): the run would oscillate or blow up; {remedy}",
+        "{}: the time step k = final_time/steps = {}/{} = {step:e} exceeds the stability limit k_max = {:.3e} of the explicit terms of (5.1) ({terms} at u_(n−1); λ_max(H⁻¹B) = {:.3e} by {} Lanczos iterations): the run would oscillate or blow up; {remedy}",
         setup.origin,
         contact_input::number::short(final_time),
         simulation.steps(),
