@@ -13,7 +13,8 @@
 //! The problem is `examples/rectangle_2d.toml` (resp. `block_3d.toml`) on the unit square (cube)
 //! with N cells per side, T = 1 and 128 steps, with β_0 = 1 − 0.4 exp(−|x − x_c|²/0.02) (x_c
 //! under the loaded region) so that the damage step has both a free and an active set from the
-//! start, and the load rising (steps 25–32 are measured, after 24 unmeasured steps): contact
+//! start, and the load rising (steps 25–32 are measured, after 24 unmeasured steps, three times
+//! from the same state; the fastest of the three is reported, since the machine is shared): contact
 //! nodes change between separated, stick and slip, and the damage active set moves.
 //!
 //! Per measured step: the load and right-hand-side assembly ([`Simulation::step_loads`], inside
@@ -52,6 +53,8 @@ use std::time::Instant;
 const WARM_STEPS: usize = 24;
 /// Measured steps.
 const MEASURED_STEPS: usize = 8;
+/// Repetitions of the measured steps from the same state; the fastest is reported.
+const REPEATS: usize = 3;
 
 type Failure = Box<dyn std::error::Error>;
 
@@ -207,6 +210,83 @@ fn counts(status: &[ContactStatus]) -> [usize; 3] {
     c
 }
 
+/// The measured steps of one repetition: seconds per step and what the steps did.
+struct Window {
+    loads: f64,
+    velocity: f64,
+    damage: f64,
+    total: f64,
+    statistics: f64,
+    outer: usize,
+    inner: usize,
+    damage_factorizations: usize,
+    status_first: [usize; 3],
+    status_last: [usize; 3],
+    active_first: (usize, usize),
+    active_last: (usize, usize),
+    kkt: [f64; 2],
+}
+
+/// Runs the [`MEASURED_STEPS`] steps from the current state, each followed by its row of
+/// `history.csv` as the run loop computes it.
+fn measure_window<const D: usize>(
+    setup: &ProblemSetup<D>,
+    simulation: &mut Simulation<D>,
+    tabulation: &Tabulation<D>,
+    axis: usize,
+    sums: &mut RunningSums,
+) -> Result<Window, Failure> {
+    let before = *simulation.timings();
+    let (mut total, mut statistics) = (0.0, 0.0);
+    let (mut outer, mut inner, mut damage_factorizations) = (0, 0, 0);
+    let mut status_first = [0; 3];
+    let mut status_last = [0; 3];
+    let mut active_first = (0, 0);
+    let mut active_last = (0, 0);
+    let mut kkt = [0.0f64; 2];
+    for m in 0..MEASURED_STEPS {
+        let started = Instant::now();
+        let outcome = simulation.step()?;
+        total += started.elapsed().as_secs_f64();
+        let started = Instant::now();
+        let record = record_step(setup, simulation, &outcome, tabulation, axis, sums);
+        std::hint::black_box(record.row.csv_line());
+        statistics += started.elapsed().as_secs_f64();
+        let contact_damage::StepOutcome {
+            velocity, damage, ..
+        } = &outcome;
+        outer += damage.stats.iterations;
+        inner += damage.stats.inner_iterations;
+        damage_factorizations += damage.stats.factorizations;
+        kkt[0] = kkt[0].max(velocity.stats.kkt_residual);
+        kkt[1] = kkt[1].max(damage.stats.kkt_residual);
+        let active = (damage.stats.lower_active, damage.stats.upper_active);
+        if m == 0 {
+            status_first = counts(&velocity.status);
+            active_first = active;
+        }
+        status_last = counts(&velocity.status);
+        active_last = active;
+    }
+    let after = *simulation.timings();
+    let per = |d: std::time::Duration| d.as_secs_f64() / MEASURED_STEPS as f64;
+    Ok(Window {
+        loads: per(after.loads - before.loads),
+        velocity: per(after.velocity - before.velocity),
+        damage: per(after.damage - before.damage),
+        total: total / MEASURED_STEPS as f64,
+        statistics: statistics / MEASURED_STEPS as f64,
+        outer,
+        inner,
+        damage_factorizations,
+        status_first,
+        status_last,
+        active_first,
+        active_last,
+        kkt,
+    })
+}
+
 /// Runs one case; returns its row of the step table and its row of the factor table,
 /// separated by ` ## `.
 fn measure<const D: usize>(cells: usize) -> Result<String, Failure> {
@@ -228,53 +308,44 @@ fn measure<const D: usize>(cells: usize) -> Result<String, Failure> {
     for _ in 0..WARM_STEPS {
         simulation.step()?;
     }
-    let before = *simulation.timings();
-    let (mut total, mut statistics) = (0.0, 0.0);
-    let (mut outer, mut inner, mut damage_factorizations) = (0, 0, 0);
-    let mut status_first = [0; 3];
-    let mut status_last = [0; 3];
-    let mut active_first = (0, 0);
-    let mut active_last = (0, 0);
-    let mut kkt = [0.0f64; 2];
-    for m in 0..MEASURED_STEPS {
-        let started = Instant::now();
-        let outcome = simulation.step()?;
-        total += started.elapsed().as_secs_f64();
-        let started = Instant::now();
-        let record = record_step(
-            &setup,
-            &simulation,
-            &outcome,
-            &tabulation,
-            line.axis,
-            &mut sums,
-        );
-        std::hint::black_box(record.row.csv_line());
-        statistics += started.elapsed().as_secs_f64();
-        let contact_damage::StepOutcome {
-            velocity, damage, ..
-        } = &outcome;
-        outer += damage.stats.iterations;
-        inner += damage.stats.inner_iterations;
-        damage_factorizations += damage.stats.factorizations;
-        kkt[0] = kkt[0].max(velocity.stats.kkt_residual);
-        kkt[1] = kkt[1].max(damage.stats.kkt_residual);
-        let active = (damage.stats.lower_active, damage.stats.upper_active);
-        if m == 0 {
-            status_first = counts(&velocity.status);
-            active_first = active;
+    // The measured window is run REPEATS times from the same state (`set_state`, as `--resume`
+    // does; the steps are the same to the bit), and the fastest repetition is reported.
+    let start_state = simulation.state().clone();
+    let start_sums = sums.clone();
+    let mut fastest: Option<Window> = None;
+    for _ in 0..REPEATS {
+        simulation.set_state(start_state.clone())?;
+        sums = start_sums.clone();
+        let window = measure_window(&setup, &mut simulation, &tabulation, line.axis, &mut sums)?;
+        if let Some(first) = &fastest {
+            if (first.outer, first.inner, first.kkt) != (window.outer, window.inner, window.kkt) {
+                return Err("a repetition of the measured steps solved differently".into());
+            }
         }
-        status_last = counts(&velocity.status);
-        active_last = active;
+        if fastest
+            .as_ref()
+            .is_none_or(|f| window.total + window.statistics < f.total + f.statistics)
+        {
+            fastest = Some(window);
+        }
     }
-    let after = *simulation.timings();
-    let per = |d: std::time::Duration| d.as_secs_f64() / MEASURED_STEPS as f64;
-    let loads = per(after.loads - before.loads);
-    let velocity = per(after.velocity - before.velocity);
-    let damage = per(after.damage - before.damage);
-    let total = total / MEASURED_STEPS as f64;
+    let Window {
+        loads,
+        velocity,
+        damage,
+        total,
+        statistics,
+        outer,
+        inner,
+        damage_factorizations,
+        status_first,
+        status_last,
+        active_first,
+        active_last,
+        kkt,
+    } = fastest.expect("REPEATS > 0");
     let rest = total - loads - velocity - damage;
-    let statistics = statistics / MEASURED_STEPS as f64;
+    let per = |d: std::time::Duration| d.as_secs_f64() / MEASURED_STEPS as f64;
 
     // The same steps with the active set method for (5.2), for comparison.
     let (active_set_damage, active_set_outer, active_set_inner) = {
@@ -397,7 +468,8 @@ fn render(
     let _ = writeln!(
         out,
         "Times in ms per step, mean of steps {}–{} of 128 (T = 1) of the rectangle/block example on the unit box \
-         (after the first factorization). *loads* = load and right-hand-side assembly of (5.1) and (5.2); *rest* = \
+         (after the first factorization), the fastest of {REPEATS} runs of these steps from the same state (`set_state`, as `--resume` does; \
+         the iteration counts and KKT residuals of every run are checked equal). *loads* = load and right-hand-side assembly of (5.1) and (5.2); *rest* = \
          the remainder of `Simulation::step` (penetrations, gap, Dirichlet values); *stats* = the row of `history.csv` \
          (`simulate::record::record_step` and its CSV line, as the run loop does); *step* = `Simulation::step`; *full* = step + stats (everything `simulate` does in \
          a step except writing VTU); *2 tri-solves* = one solve with the velocity factor (forward + backward \
