@@ -39,7 +39,7 @@ use crate::linalg::multiply;
 use crate::quadrature::QuadratureRule;
 use crate::space::Tabulation;
 use crate::velocity::VelocityOperator;
-use crate::Result;
+use crate::{Error, Result};
 use nalgebra::SVector;
 
 /// The estimated step limit of (5.1).
@@ -172,6 +172,11 @@ fn largest_pencil_eigenvalue(
         iterations += 1;
         let bq = apply_b(&q)?;
         let alpha = dot(&q, &bq);
+        if !alpha.is_finite() {
+            return Err(Error::NonFinite(format!(
+                "step limit: the Rayleigh quotient qᵀBq = {alpha} at Lanczos iteration {iterations}"
+            )));
+        }
         diagonal.push(alpha);
         let estimate = largest_ritz_value(&diagonal, &off_diagonal);
         let change = (estimate - rate).abs();
@@ -186,8 +191,13 @@ fn largest_pencil_eigenvalue(
             *w -= alpha * q + beta_previous * p;
         }
         let beta = dot(&w, &apply_h(&w)).sqrt();
+        if !beta.is_finite() {
+            return Err(Error::NonFinite(format!(
+                "step limit: the H-norm of the Lanczos vector {beta} at iteration {iterations}"
+            )));
+        }
         // an invariant subspace: the Ritz values are eigenvalues, the estimate exact
-        if beta.is_nan() || beta <= INVARIANT * rate {
+        if beta <= INVARIANT * rate {
             break;
         }
         off_diagonal.push(beta);
@@ -271,6 +281,22 @@ mod tests {
             proptest::prop_assert!(rate >= largest * (1.0 - 1e-4), "{} << {} after {} iterations", rate, largest, iterations);
             proptest::prop_assert!(iterations <= size + 1);
         }
+    }
+
+    #[test]
+    fn lanczos_reports_a_non_finite_stiffness_as_an_error() {
+        let identity = |x: &[f64]| x.to_vec();
+        let error = largest_pencil_eigenvalue(
+            &[1.0, 2.0],
+            |x| Ok(vec![f64::NAN * x[0], 0.0]),
+            |x| Ok(identity(x)),
+            identity,
+        )
+        .unwrap_err();
+        assert!(
+            matches!(error, Error::NonFinite(ref m) if m.contains("Rayleigh quotient")),
+            "{error}"
+        );
     }
 
     #[test]
