@@ -168,13 +168,28 @@ fn largest_pencil_eigenvalue(
         return Ok((rate, iterations));
     }
     q.iter_mut().for_each(|v| *v /= norm);
+    // The process runs on B/scale, scale = the first Rayleigh quotient, so that a stiffness
+    // near the top of the f64 range (k_max ≈ 0) does not overflow the products below; the
+    // eigenvalues scale back at the end.
+    let mut scale = 1.0;
     while iterations < MAX_ITERATIONS {
         iterations += 1;
-        let bq = apply_b(&q)?;
+        let mut bq = apply_b(&q)?;
+        if iterations == 1 {
+            let first = dot(&q, &bq);
+            if first == f64::INFINITY {
+                // a stiffness beyond the f64 range: λ_max = ∞, k_max = 0
+                return Ok((f64::INFINITY, iterations));
+            }
+            if first > 0.0 {
+                scale = first;
+            }
+        }
+        bq.iter_mut().for_each(|v| *v /= scale);
         let alpha = dot(&q, &bq);
         if !alpha.is_finite() {
             return Err(Error::NonFinite(format!(
-                "step limit: the Rayleigh quotient qᵀBq = {alpha} at Lanczos iteration {iterations}"
+                "step limit: the Rayleigh quotient qᵀBq/{scale:e} = {alpha} at Lanczos iteration {iterations}"
             )));
         }
         diagonal.push(alpha);
@@ -204,7 +219,7 @@ fn largest_pencil_eigenvalue(
         w.iter_mut().for_each(|v| *v /= beta);
         previous = std::mem::replace(&mut q, w);
     }
-    Ok((rate, iterations))
+    Ok((rate * scale, iterations))
 }
 
 /// The largest eigenvalue of the symmetric tridiagonal matrix with the given diagonal and
@@ -297,6 +312,28 @@ mod tests {
             matches!(error, Error::NonFinite(ref m) if m.contains("Rayleigh quotient")),
             "{error}"
         );
+    }
+
+    #[test]
+    fn lanczos_handles_a_stiffness_near_the_top_of_the_f64_range() {
+        // B = 1e300 diag(1, 3), H = I: λ_max = 3e300 (unscaled, ‖H⁻¹B q‖²_H overflows)
+        let identity = |x: &[f64]| x.to_vec();
+        let (rate, _) = largest_pencil_eigenvalue(
+            &[1.0, 2.0],
+            |x| Ok(vec![1e300 * x[0], 3e300 * x[1]]),
+            |x| Ok(identity(x)),
+            identity,
+        )
+        .unwrap();
+        assert!((rate / 3e300 - 1.0).abs() <= 1e-12, "{rate:e}");
+        let (rate, _) = largest_pencil_eigenvalue(
+            &[1.0, 2.0],
+            |x| Ok(vec![f64::INFINITY * x[0].abs(), 0.0]),
+            |x| Ok(identity(x)),
+            identity,
+        )
+        .unwrap();
+        assert_eq!(rate, f64::INFINITY);
     }
 
     #[test]
