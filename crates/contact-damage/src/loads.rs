@@ -80,6 +80,63 @@ impl<const D: usize> LoadQuadrature<D> {
         }
     }
 
+    /// Number of quadrature points per cell.
+    pub fn points_per_cell(&self) -> usize {
+        self.tabulation.len()
+    }
+
+    /// The load vectors of the step at `time` from the state (u_{n−1}, β_{n−1}): the velocity
+    /// load (Cartesian, node-major) and the damage source ⟨φ(ε(u_{n−1}), β_{n−1}) + q(t_n),
+    /// φ_a⟩ + ∫_Γ κ∂β/∂ν φ_a.
+    pub fn assemble(
+        &self,
+        space: &LagrangeSpace<D>,
+        model: &Model<D>,
+        data: &Data<D>,
+        time: f64,
+        state: &State,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let tab = &self.tabulation;
+        let local = tab.nodes * (D + 1);
+        let mut locals = vec![0.0; space.mesh().num_cells() * local];
+        locals
+            .par_chunks_mut(CHUNK_CELLS * local)
+            .enumerate()
+            .for_each(|(chunk, out)| {
+                self.cell_chunk(space, model, data, time, state, chunk * CHUNK_CELLS, out)
+            });
+        let mut velocity_load = vec![0.0; space.num_nodes() * D];
+        let mut damage_source = vec![0.0; space.num_nodes()];
+        for (cell, chunk) in locals.chunks(local).enumerate() {
+            for (a, &node) in space.cell_nodes(cell).iter().enumerate() {
+                for i in 0..D {
+                    velocity_load[node * D + i] += chunk[a * (D + 1) + i];
+                }
+                damage_source[node] += chunk[a * (D + 1) + D];
+            }
+        }
+        let vector_part = |facets: &FacetPoints<D>,
+                           field: &dyn crate::fields::BatchBoundaryVectorField<D>,
+                           global: &mut [f64]| {
+            let mut values = vec![[0.0; D]; facets.len()];
+            field.evaluate(&facets.points, &facets.normals, time, &mut values);
+            facets.scatter(space, D, values.as_flattened(), global);
+        };
+        if let Some(traction) = &data.traction {
+            vector_part(&self.neumann, traction.as_ref(), &mut velocity_load);
+        }
+        if let Some(traction) = &data.contact_traction {
+            vector_part(&self.contact, traction.as_ref(), &mut velocity_load);
+        }
+        if let Some(flux) = &data.damage_flux {
+            let facets = &self.boundary;
+            let mut values = vec![0.0; facets.len()];
+            flux.evaluate(&facets.points, &facets.normals, time, &mut values);
+            facets.scatter(space, 1, &values, &mut damage_source);
+        }
+        (velocity_load, damage_source)
+    }
+
     /// The element load vectors of the cells `first..` filling `out` (`(D + 1)` values per
     /// local node: the velocity load, then the damage source), one batch of field evaluations
     /// over all quadrature points of the chunk.
@@ -205,63 +262,6 @@ impl<const D: usize> LoadQuadrature<D> {
                 out[a * (D + 1) + D] += sum;
             }
         }
-    }
-
-    /// Number of quadrature points per cell.
-    pub fn points_per_cell(&self) -> usize {
-        self.tabulation.len()
-    }
-
-    /// The load vectors of the step at `time` from the state (u_{n−1}, β_{n−1}): the velocity
-    /// load (Cartesian, node-major) and the damage source ⟨φ(ε(u_{n−1}), β_{n−1}) + q(t_n),
-    /// φ_a⟩ + ∫_Γ κ∂β/∂ν φ_a.
-    pub fn assemble(
-        &self,
-        space: &LagrangeSpace<D>,
-        model: &Model<D>,
-        data: &Data<D>,
-        time: f64,
-        state: &State,
-    ) -> (Vec<f64>, Vec<f64>) {
-        let tab = &self.tabulation;
-        let local = tab.nodes * (D + 1);
-        let mut locals = vec![0.0; space.mesh().num_cells() * local];
-        locals
-            .par_chunks_mut(CHUNK_CELLS * local)
-            .enumerate()
-            .for_each(|(chunk, out)| {
-                self.cell_chunk(space, model, data, time, state, chunk * CHUNK_CELLS, out)
-            });
-        let mut velocity_load = vec![0.0; space.num_nodes() * D];
-        let mut damage_source = vec![0.0; space.num_nodes()];
-        for (cell, chunk) in locals.chunks(local).enumerate() {
-            for (a, &node) in space.cell_nodes(cell).iter().enumerate() {
-                for i in 0..D {
-                    velocity_load[node * D + i] += chunk[a * (D + 1) + i];
-                }
-                damage_source[node] += chunk[a * (D + 1) + D];
-            }
-        }
-        let vector_part = |facets: &FacetPoints<D>,
-                           field: &dyn crate::fields::BatchBoundaryVectorField<D>,
-                           global: &mut [f64]| {
-            let mut values = vec![[0.0; D]; facets.len()];
-            field.evaluate(&facets.points, &facets.normals, time, &mut values);
-            facets.scatter(space, D, values.as_flattened(), global);
-        };
-        if let Some(traction) = &data.traction {
-            vector_part(&self.neumann, traction.as_ref(), &mut velocity_load);
-        }
-        if let Some(traction) = &data.contact_traction {
-            vector_part(&self.contact, traction.as_ref(), &mut velocity_load);
-        }
-        if let Some(flux) = &data.damage_flux {
-            let facets = &self.boundary;
-            let mut values = vec![0.0; facets.len()];
-            flux.evaluate(&facets.points, &facets.normals, time, &mut values);
-            facets.scatter(space, 1, &values, &mut damage_source);
-        }
-        (velocity_load, damage_source)
     }
 }
 

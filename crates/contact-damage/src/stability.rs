@@ -151,7 +151,8 @@ pub fn step_limit<const D: usize>(
 /// semidefinite, by the Lanczos process on H^{-1}B in the H inner product from `start`
 /// (module documentation): q_j H-orthonormal, T_j = tridiag(β_{j−1}, α_j, β_j) with
 /// α_j = q_jᵀ B q_j. Returns the largest Ritz value (a lower bound of λ_max of the Krylov
-/// space of `start`, 0 for a start with H-norm 0) and the iterations done.
+/// space of `start`, 0 for a start with H-norm 0) and the iterations done; a non-finite
+/// quotient or norm (other than an infinite first quotient, λ_max = ∞) is an error.
 fn largest_pencil_eigenvalue(
     start: &[f64],
     apply_b: impl Fn(&[f64]) -> Result<Vec<f64>>,
@@ -164,8 +165,13 @@ fn largest_pencil_eigenvalue(
     let (mut diagonal, mut off_diagonal) = (Vec::new(), Vec::new());
     let mut rate = 0.0;
     let mut iterations = 0;
-    if norm.is_nan() || norm <= 0.0 || norm.is_infinite() {
-        return Ok((rate, iterations));
+    if norm == 0.0 {
+        return Ok((rate, iterations)); // every unknown constrained: nothing is explicit
+    }
+    if !norm.is_finite() {
+        return Err(Error::NonFinite(format!(
+            "step limit: the H-norm of the start vector is {norm}"
+        )));
     }
     q.iter_mut().for_each(|v| *v /= norm);
     // The process runs on B/scale, scale = the first Rayleigh quotient, so that a stiffness
@@ -310,6 +316,22 @@ mod tests {
         .unwrap_err();
         assert!(
             matches!(error, Error::NonFinite(ref m) if m.contains("Rayleigh quotient")),
+            "{error}"
+        );
+    }
+
+    #[test]
+    fn lanczos_reports_a_non_finite_viscous_norm_as_an_error() {
+        let identity = |x: &[f64]| x.to_vec();
+        let error = largest_pencil_eigenvalue(
+            &[1.0, 2.0],
+            |x| Ok(identity(x)),
+            |x| Ok(identity(x)),
+            |x| vec![f64::NAN * x[0], x[1]],
+        )
+        .unwrap_err();
+        assert!(
+            matches!(error, Error::NonFinite(ref m) if m.contains("H-norm of the start")),
             "{error}"
         );
     }
