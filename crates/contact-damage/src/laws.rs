@@ -11,7 +11,7 @@
 //! (3.4), resp. the sign conditions of the moduli, at fixed samples.
 
 use crate::{Error, Result};
-use nalgebra::{DMatrix, SMatrix};
+use nalgebra::{DMatrix, SMatrix, SVector};
 use std::sync::Arc;
 
 /// A symmetric second-order tensor in R^D (strain, strain rate, stress).
@@ -49,6 +49,40 @@ pub trait Viscosity<const D: usize>: Send + Sync {
     fn is_linear(&self) -> bool;
     /// Checks the parameters against (3.4).
     fn validate(&self) -> Result<()>;
+    /// Div 𝒜(ε) at a point of a smooth strain-rate field ε(x), by the chain rule:
+    /// (Div 𝒜(ε))_i = Σ_j (d𝒜(ε)\[∂_j ε\])_ij, from ε and its partial derivatives
+    /// `derivatives[j]` = ∂_j ε.
+    ///
+    /// Not used by the scheme: manufactured solutions need it (f0 = −Div σ). The default applies
+    /// the tangent once per direction and keeps column j of the j-th result; a law with a closed
+    /// form overrides it (one call per point instead of D tangents).
+    fn stress_divergence(
+        &self,
+        strain_rate: &Tensor<D>,
+        derivatives: &[Tensor<D>; D],
+    ) -> SVector<f64, D> {
+        let mut divergence = SVector::<f64, D>::zeros();
+        for (j, derivative) in derivatives.iter().enumerate() {
+            divergence += self.tangent(strain_rate, derivative).column(j);
+        }
+        divergence
+    }
+}
+
+/// Σ_j (∂_j ε)_ij and tr(∂_i ε) for i < D: the two contractions that the divergence of an
+/// isotropic linear law 2a ε + b tr(ε) I needs, `(2a Σ_j (∂_j ε)_ij + b tr(∂_i ε))_i`.
+fn isotropic_divergence<const D: usize>(
+    twice_shear: f64,
+    trace_factor: f64,
+    derivatives: &[Tensor<D>; D],
+) -> SVector<f64, D> {
+    SVector::<f64, D>::from_fn(|i, _| {
+        let mut column_sum = 0.0;
+        for (j, derivative) in derivatives.iter().enumerate() {
+            column_sum += derivative[(i, j)];
+        }
+        twice_shear * column_sum + trace_factor * trace(&derivatives[i])
+    })
 }
 
 /// Linear isotropic viscosity 𝒜ε = 2η ε + ζ tr(ε) I.
@@ -74,6 +108,14 @@ impl<const D: usize> Viscosity<D> for LinearViscosity {
     }
     fn is_linear(&self) -> bool {
         true
+    }
+    /// Div(2η ε + ζ tr(ε) I) = (2η Σ_j ∂_j ε_ij + ζ ∂_i tr ε)_i.
+    fn stress_divergence(
+        &self,
+        _strain_rate: &Tensor<D>,
+        derivatives: &[Tensor<D>; D],
+    ) -> SVector<f64, D> {
+        isotropic_divergence(2.0 * self.shear, self.bulk, derivatives)
     }
     fn validate(&self) -> Result<()> {
         check_finite("viscosity.shear", self.shear)?;
@@ -570,6 +612,29 @@ pub trait Elasticity<const D: usize>: Send + Sync {
         }
         sum
     }
+    /// Div G(ε, β) at a point of smooth fields ε(x), β(x), by the chain rule:
+    /// (Div G)_i = Σ_j (∂G/∂ε\[∂_j ε\] + ∂G/∂β ∂_j β)_ij, from ε, β, the partial derivatives
+    /// `strain_derivatives[j]` = ∂_j ε and ∇β.
+    ///
+    /// Like the other derivatives, not used by the scheme (f0 = −Div σ of manufactured
+    /// solutions). The default calls [`Elasticity::strain_derivative`] once per direction; a law
+    /// with a closed form overrides it.
+    fn stress_divergence(
+        &self,
+        strain: &Tensor<D>,
+        damage: f64,
+        strain_derivatives: &[Tensor<D>; D],
+        damage_gradient: &SVector<f64, D>,
+    ) -> SVector<f64, D> {
+        let damage_slope = self.damage_derivative(strain, damage);
+        let mut divergence = SVector::<f64, D>::zeros();
+        for (j, derivative) in strain_derivatives.iter().enumerate() {
+            divergence += (self.strain_derivative(strain, damage, derivative)
+                + damage_slope * damage_gradient[j])
+                .column(j);
+        }
+        divergence
+    }
 }
 
 /// G(ε, β) = β̄ (2μ ε + λ tr(ε) I) with β̄ = min(max(β, 0), 1) (damage clamped to [0, 1] inside G,
@@ -620,6 +685,26 @@ impl<const D: usize> Elasticity<D> for DamagedHooke {
             self.undamaged(strain)
         } else {
             Tensor::<D>::zeros()
+        }
+    }
+    /// β̄ (2μ Σ_j ∂_j ε_ij + λ ∂_i tr ε) + ((2μ ε + λ tr(ε) I) ∇β)_i, the last term only for
+    /// β ∈ [0, 1] (as [`Elasticity::damage_derivative`]).
+    fn stress_divergence(
+        &self,
+        strain: &Tensor<D>,
+        damage: f64,
+        strain_derivatives: &[Tensor<D>; D],
+        damage_gradient: &SVector<f64, D>,
+    ) -> SVector<f64, D> {
+        let elastic = isotropic_divergence(
+            2.0 * self.shear_modulus,
+            self.lame_lambda,
+            strain_derivatives,
+        ) * damage.clamp(0.0, 1.0);
+        if (0.0..=1.0).contains(&damage) {
+            elastic + self.undamaged(strain) * damage_gradient
+        } else {
+            elastic
         }
     }
     fn validate(&self) -> Result<()> {
@@ -705,6 +790,25 @@ impl<const D: usize> Elasticity<D> for ModuliElasticity {
             Self::hooke(shear_slope, lambda_slope, strain)
         } else {
             Tensor::<D>::zeros()
+        }
+    }
+    /// (2μ(β̄) Σ_j ∂_j ε_ij + λ(β̄) ∂_i tr ε) + ((2μ'(β) ε + λ'(β) tr(ε) I) ∇β)_i, the last term
+    /// only for β ∈ [0, 1] (as [`Elasticity::damage_derivative`]): the moduli once per point.
+    fn stress_divergence(
+        &self,
+        strain: &Tensor<D>,
+        damage: f64,
+        strain_derivatives: &[Tensor<D>; D],
+        damage_gradient: &SVector<f64, D>,
+    ) -> SVector<f64, D> {
+        // Inside [0, 1] β̄ = β: one evaluation of each modulus gives value and slope.
+        let (shear, shear_slope) = self.moduli.shear_modulus(damage.clamp(0.0, 1.0));
+        let (lambda, lambda_slope) = self.moduli.lame_lambda(damage.clamp(0.0, 1.0));
+        let elastic = isotropic_divergence(2.0 * shear, lambda, strain_derivatives);
+        if (0.0..=1.0).contains(&damage) {
+            elastic + Self::hooke(shear_slope, lambda_slope, strain) * damage_gradient
+        } else {
+            elastic
         }
     }
     fn validate(&self) -> Result<()> {
@@ -1318,10 +1422,11 @@ mod tests {
         assert!(message.contains("spread over more than 10⁸"), "{message}");
     }
 
-    /// [`DamagedHooke`] without its own `weighted_stress_sum`: the trait's point-by-point sum.
-    struct PointwiseHooke(DamagedHooke);
+    /// A law with the trait's default methods (`weighted_stress_sum`, `stress_divergence`):
+    /// the reference of the closed forms that laws override them with.
+    struct TraitDefaults<L>(L);
 
-    impl Elasticity<3> for PointwiseHooke {
+    impl<L: Elasticity<3>> Elasticity<3> for TraitDefaults<L> {
         fn stress(&self, strain: &Tensor<3>, damage: f64) -> Tensor<3> {
             self.0.stress(strain, damage)
         }
@@ -1334,10 +1439,75 @@ mod tests {
             self.0.strain_derivative(strain, damage, direction)
         }
         fn damage_derivative(&self, strain: &Tensor<3>, damage: f64) -> Tensor<3> {
-            Elasticity::<3>::damage_derivative(&self.0, strain, damage)
+            self.0.damage_derivative(strain, damage)
         }
         fn validate(&self) -> Result<()> {
-            Elasticity::<3>::validate(&self.0)
+            self.0.validate()
+        }
+    }
+
+    impl<L: Viscosity<3>> Viscosity<3> for TraitDefaults<L> {
+        fn stress(&self, strain_rate: &Tensor<3>) -> Tensor<3> {
+            self.0.stress(strain_rate)
+        }
+        fn tangent(&self, strain_rate: &Tensor<3>, direction: &Tensor<3>) -> Tensor<3> {
+            self.0.tangent(strain_rate, direction)
+        }
+        fn potential(&self, strain_rate: &Tensor<3>) -> f64 {
+            self.0.potential(strain_rate)
+        }
+        fn is_linear(&self) -> bool {
+            self.0.is_linear()
+        }
+        fn validate(&self) -> Result<()> {
+            self.0.validate()
+        }
+    }
+
+    /// A symmetric tensor from 9 entries.
+    fn symmetric_from(entries: &[f64]) -> Tensor<3> {
+        let m = Tensor::<3>::from_column_slice(entries);
+        (m + m.transpose()) * 0.5
+    }
+
+    proptest::proptest! {
+        /// The closed-form divergences (one call per point) against the trait's chain rule
+        /// through `tangent`, `strain_derivative` and `damage_derivative` (D calls each).
+        #[test]
+        fn closed_form_stress_divergences_equal_the_chain_rule(
+            entries in proptest::collection::vec(-1.0f64..1.0, 39),
+            damage in -0.5f64..1.5,
+        ) {
+            let strain = symmetric_from(&entries[..9]);
+            let derivatives: [Tensor<3>; 3] =
+                std::array::from_fn(|j| symmetric_from(&entries[9 * (j + 1)..9 * (j + 2)]));
+            let damage_gradient = SVector::<f64, 3>::from_column_slice(&entries[36..39]);
+            // the sums of the chain rule, term by term: a few roundings of this size apart
+            let size = 10.0 * (1.0 + strain.norm())
+                * (derivatives.iter().map(|d| d.norm()).sum::<f64>() + damage_gradient.norm());
+            let close = |a: SVector<f64, 3>, b: SVector<f64, 3>| (a - b).norm() <= 1e-14 * size;
+            let viscosity = LinearViscosity { shear: 0.7, bulk: -0.2 };
+            let (ours, chain) = (
+                viscosity.stress_divergence(&strain, &derivatives),
+                TraitDefaults(viscosity).stress_divergence(&strain, &derivatives),
+            );
+            proptest::prop_assert!(close(ours, chain), "viscosity: {} vs {}", ours, chain);
+            let hooke = DamagedHooke { shear_modulus: 1.3, lame_lambda: -0.4 };
+            let moduli = || ModuliElasticity {
+                moduli: Arc::new(PowerModuli { shear: 2.0, lambda: -0.5, lambda_shift: 0.1 }),
+            };
+            let (ours, chain) = (
+                hooke.stress_divergence(&strain, damage, &derivatives, &damage_gradient),
+                TraitDefaults(hooke).stress_divergence(&strain, damage, &derivatives,
+                    &damage_gradient),
+            );
+            proptest::prop_assert!(close(ours, chain), "damaged Hooke: {} vs {}", ours, chain);
+            let (ours, chain) = (
+                moduli().stress_divergence(&strain, damage, &derivatives, &damage_gradient),
+                TraitDefaults(moduli()).stress_divergence(&strain, damage, &derivatives,
+                    &damage_gradient),
+            );
+            proptest::prop_assert!(close(ours, chain), "moduli: {} vs {}", ours, chain);
         }
     }
 
@@ -1353,7 +1523,7 @@ mod tests {
             let strain = (strain + strain.transpose()) * 0.5;
             let weights: Vec<f64> = (0..damages.len()).map(|q| scale * (1.0 + q as f64)).collect();
             let cell = law.weighted_stress_sum(&strain, &damages, &weights);
-            let points = PointwiseHooke(law).weighted_stress_sum(&strain, &damages, &weights);
+            let points = TraitDefaults(law).weighted_stress_sum(&strain, &damages, &weights);
             // the same sum in another order: a few roundings of the largest term apart
             let size = law.undamaged(&strain).norm() * weights.iter().sum::<f64>();
             proptest::prop_assert!((cell - points).norm() <= 1e-14 * size.max(1e-300),

@@ -135,6 +135,26 @@ struct ReferencePoint<const D: usize> {
     damage_gradient: SVector<f64, D>,
 }
 
+/// Adds the weighted squared differences of one point to `local` = [u, δu, β, ∇β, v] (the
+/// last NaN for a discrete reference, which has no ε(u̇)).
+#[inline(always)]
+fn accumulate<const D: usize>(
+    local: &mut [f64; 5],
+    discrete: &DiscretePoint<D>,
+    reference: &ReferencePoint<D>,
+) {
+    let weight = discrete.weight;
+    local[0] += weight * (reference.strain - discrete.strain).norm_squared();
+    local[1] += weight * (reference.quotient - discrete.rate).norm_squared();
+    local[2] += weight * (reference.damage - discrete.damage).powi(2);
+    local[3] += weight * (reference.damage_gradient - discrete.damage_gradient).norm_squared();
+    if let Some(rate) = reference.rate {
+        local[4] += weight * (rate - discrete.rate).norm_squared();
+    } else {
+        local[4] = f64::NAN;
+    }
+}
+
 /// Accumulates the error components over the steps of one run (used inside the observer).
 pub struct ErrorTracker<const D: usize> {
     reference: Reference<D>,
@@ -319,21 +339,6 @@ impl<const D: usize> ErrorTracker<D> {
                     }
                 }
                 let mut local = [0.0; 5];
-                let mut add = |at: usize, reference: ReferencePoint<D>| {
-                    let discrete = &discrete[at];
-                    let weight = discrete.weight;
-                    strain_out[at] = reference.strain;
-                    local[0] += weight * (reference.strain - discrete.strain).norm_squared();
-                    local[1] += weight * (reference.quotient - discrete.rate).norm_squared();
-                    local[2] += weight * (reference.damage - discrete.damage).powi(2);
-                    local[3] += weight
-                        * (reference.damage_gradient - discrete.damage_gradient).norm_squared();
-                    if let Some(rate) = reference.rate {
-                        local[4] += weight * (rate - discrete.rate).norm_squared();
-                    } else {
-                        local[4] = f64::NAN;
-                    }
-                };
                 let first_point = first_cell * nq;
                 if let Some(exact) = &exact {
                     // The exact ∇u, ∇u̇, β, ∇β, batch after batch, in point order.
@@ -353,23 +358,23 @@ impl<const D: usize> ErrorTracker<D> {
                             for (p, &damage) in beta.iter().enumerate() {
                                 let at = offset + p;
                                 let strain = sym(&SMatrix::<f64, D, D>::from_fn(|i, j| g[i][j][p]));
-                                add(
-                                    at,
-                                    ReferencePoint {
-                                        strain,
-                                        quotient: (strain - previous_strain[first_point + at]) / k,
-                                        rate: Some(sym(&SMatrix::<f64, D, D>::from_fn(|i, j| {
-                                            r[i][j][p]
-                                        }))),
-                                        damage,
-                                        damage_gradient: SVector::<f64, D>::from_fn(|j, _| b[j][p]),
-                                    },
-                                );
+                                let reference = ReferencePoint {
+                                    strain,
+                                    quotient: (strain - previous_strain[first_point + at]) / k,
+                                    rate: Some(sym(&SMatrix::<f64, D, D>::from_fn(|i, j| {
+                                        r[i][j][p]
+                                    }))),
+                                    damage,
+                                    damage_gradient: SVector::<f64, D>::from_fn(|j, _| b[j][p]),
+                                };
+                                accumulate(&mut local, &discrete[at], &reference);
+                                strain_out[at] = strain;
                             }
                         });
                 } else {
-                    for (at, reference) in references.into_iter().enumerate() {
-                        add(at, reference);
+                    for (at, reference) in references.iter().enumerate() {
+                        accumulate(&mut local, &discrete[at], reference);
+                        strain_out[at] = reference.strain;
                     }
                 }
                 local

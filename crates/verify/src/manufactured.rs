@@ -224,28 +224,54 @@ pub fn stress_at<const D: usize>(laws: &Laws<D>, state: &PointState<D>) -> Tenso
             .stress(&symmetric(&state.displacement_gradient), state.damage)
 }
 
-/// f0 = −Div σ by the chain rule: ∂_j σ = 𝒜'(ε(u̇))[∂_j ε(u̇)] + ∂_ε G[∂_j ε(u)] + ∂_β G ∂_j β.
+/// f0 = −Div σ by the chain rule: Div σ = Div 𝒜(ε(u̇)) + Div G(ε(u), β), each law's
+/// divergence from the strain (rate), its partial derivatives ∂_j ε and ∇β
+/// ([`contact_damage::laws::Viscosity::stress_divergence`],
+/// [`contact_damage::laws::Elasticity::stress_divergence`]).
 #[inline]
 pub fn body_force_at<const D: usize>(laws: &Laws<D>, state: &PointState<D>) -> [f64; D] {
-    let rate = symmetric(&state.velocity_gradient);
-    let strain = symmetric(&state.displacement_gradient);
-    let beta = state.damage;
-    let damage_slope = laws.elasticity.damage_derivative(&strain, beta);
-    let mut divergence = SVector::<f64, D>::zeros();
-    for j in 0..D {
-        let d_sigma = laws
-            .viscosity
-            .tangent(&rate, &symmetric(&state.velocity_second[j]))
-            + laws.elasticity.strain_derivative(
-                &strain,
-                beta,
-                &symmetric(&state.displacement_second[j]),
-            )
-            + damage_slope * state.damage_gradient[j];
-        for i in 0..D {
-            divergence[i] += d_sigma[(i, j)];
-        }
-    }
+    body_force_of_strains(
+        laws,
+        &StrainJet {
+            strain: symmetric(&state.velocity_gradient),
+            derivatives: std::array::from_fn(|j| symmetric(&state.velocity_second[j])),
+        },
+        &StrainJet {
+            strain: symmetric(&state.displacement_gradient),
+            derivatives: std::array::from_fn(|j| symmetric(&state.displacement_second[j])),
+        },
+        state.damage,
+        &state.damage_gradient,
+    )
+}
+
+/// A strain (or strain rate) ε at a point and its partial derivatives ∂_j ε.
+pub struct StrainJet<const D: usize> {
+    /// ε.
+    pub strain: Tensor<D>,
+    /// ∂_j ε for j < D.
+    pub derivatives: [Tensor<D>; D],
+}
+
+/// f0 = −(Div 𝒜(ε(u̇)) + Div G(ε(u), β)) from the strain jets of u̇ and u, β and ∇β (the
+/// formula of [`body_force_at`], which the batched data call on their columns).
+#[inline]
+pub fn body_force_of_strains<const D: usize>(
+    laws: &Laws<D>,
+    rate: &StrainJet<D>,
+    strain: &StrainJet<D>,
+    damage: f64,
+    damage_gradient: &SVector<f64, D>,
+) -> [f64; D] {
+    let divergence = laws
+        .viscosity
+        .stress_divergence(&rate.strain, &rate.derivatives)
+        + laws.elasticity.stress_divergence(
+            &strain.strain,
+            damage,
+            &strain.derivatives,
+            damage_gradient,
+        );
     std::array::from_fn(|i| -divergence[i])
 }
 
@@ -335,8 +361,22 @@ pub fn damage_supply_at<const D: usize>(
     displacement_gradient: &SMatrix<f64, D, D>,
 ) -> f64 {
     let strain = symmetric(displacement_gradient);
-    damage.rate - laws.damage_diffusion * damage.laplacian + damage.multiplier
-        - laws.damage_source.source(&strain, damage.value)
+    damage_supply_of_source(
+        laws,
+        damage,
+        laws.damage_source.source(&strain, damage.value),
+    )
+}
+
+/// q = β̇ − κΔβ + η − φ from the value `source` = φ(ε(u), β) (the formula of
+/// [`damage_supply_at`], which the batched data call after one batch evaluation of φ).
+#[inline]
+pub fn damage_supply_of_source<const D: usize>(
+    laws: &Laws<D>,
+    damage: &DamageJet,
+    source: f64,
+) -> f64 {
+    damage.rate - laws.damage_diffusion * damage.laplacian + damage.multiplier - source
 }
 
 /// κ ∂β/∂ν.

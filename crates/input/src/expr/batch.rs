@@ -35,6 +35,20 @@ impl Program {
         count: usize,
         registers: &mut Vec<f64>,
     ) {
+        self.eval_batch_columns(inputs, block, count, registers, true)
+    }
+
+    /// [`Program::eval_batch_with_block`]; with `copy_output_variables` false the registers of
+    /// outputs that are variables are left unwritten, for a caller that reads those outputs
+    /// from their input columns (`super::split::BatchOutputs`).
+    pub(super) fn eval_batch_columns(
+        &self,
+        inputs: &[&[f64]],
+        block: &[f64],
+        count: usize,
+        registers: &mut Vec<f64>,
+        copy_output_variables: bool,
+    ) {
         let direct = inputs.len();
         assert_eq!(
             direct * count + block.len(),
@@ -65,7 +79,7 @@ impl Program {
                 Instruction::Constant(bits) => out.fill(f64::from_bits(bits)),
                 Instruction::Variable(slot) => {
                     // Copied only where it is an output (read from the registers).
-                    if self.output_variables[index] {
+                    if copy_output_variables && self.output_variables[index] {
                         out.copy_from_slice(column(slot))
                     }
                 }

@@ -79,12 +79,23 @@ pub struct BatchOutputs<'a> {
     program: &'a Program,
     registers: &'a [f64],
     count: usize,
+    /// The program's direct input columns, then its block of cached columns: an output that
+    /// is a variable is read from there (its register is not written).
+    inputs: &'a [&'a [f64]],
+    block: &'a [f64],
 }
 
 impl BatchOutputs<'_> {
     /// The `count` values of output `k` at the points of the batch.
     pub fn get(&self, k: usize) -> &[f64] {
-        self.program.batch_output(self.registers, self.count, k)
+        let register = self.program.outputs[k];
+        match self.program.instructions[register as usize] {
+            Instruction::Variable(slot) => match slot.checked_sub(self.inputs.len()) {
+                None => self.inputs[slot],
+                Some(cached) => &self.block[cached * self.count..][..self.count],
+            },
+            _ => self.program.batch_output(self.registers, self.count, k),
+        }
     }
 
     /// Number of points of the batch.
@@ -210,29 +221,23 @@ impl SplitProgram {
                 fill_coordinates(&mut inputs, chunk);
                 let offset = batch * BATCH;
                 let columns: [&[f64]; 4] = std::array::from_fn(|v| &inputs[v][..count]);
-                let program = match &entry {
+                // Outputs that are variables are read from their columns, not copied.
+                let (program, block) = match &entry {
                     Some(entry) => {
                         let cached = &entry.frontier[offset * frontier..][..count * frontier];
-                        self.varying.eval_batch_with_block(
-                            &columns[..variables],
-                            cached,
-                            count,
-                            registers,
-                        );
-                        &self.varying
+                        (&self.varying, cached)
                     }
-                    None => {
-                        self.whole
-                            .eval_batch(&columns[..variables], count, registers);
-                        &self.whole
-                    }
+                    None => (&self.whole, &[][..]),
                 };
+                program.eval_batch_columns(&columns[..variables], block, count, registers, false);
                 each(
                     offset,
                     &BatchOutputs {
                         program,
                         registers,
                         count,
+                        inputs: &columns[..variables],
+                        block,
                     },
                 );
             }

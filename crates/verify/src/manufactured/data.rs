@@ -1,19 +1,23 @@
 //! The manufactured data f0, f2, f3, q and κ∂β/∂ν (SPEC §4) as batched fields of the solver
 //! ([`contact_damage::fields`]): the exact fields' derivatives come from the programs compiled
 //! once per case ([`ExactPrograms`]), evaluated over the scheme's batches of quadrature
-//! points; the chain rule through the laws is applied per point (`*_at` in the parent module).
+//! points; the chain rule through the laws is applied per point (the `*_at` / `*_of_*`
+//! formulas of the parent module): f0 by one call per law and point of its stress divergence
+//! (`stress_divergence`, closed forms for the built-in laws) on strain jets read straight from
+//! the columns, q by one batch call of φ (`DamageSource::source_batch`).
 
 use super::programs::{
     body_force_quantities, boundary_quantities, error_quantities, flux_quantities,
-    supply_quantities, Columns, Quantity, QuantityProgram,
+    supply_quantities, Columns, Quantity, QuantityProgram, BATCH,
 };
 use super::{
-    body_force_at, contact_traction_at, damage_flux_at, damage_supply_at, traction_at, DamageJet,
-    ExactSolution, Laws, PointState,
+    body_force_of_strains, contact_traction_at, damage_flux_at, damage_supply_of_source,
+    traction_at, DamageJet, ExactSolution, Laws, PointState, StrainJet,
 };
 use contact_damage::fields::{
     BatchBoundaryScalarField, BatchBoundaryVectorField, BatchScalarField, BatchVectorField,
 };
+use contact_damage::laws::Tensor;
 use nalgebra::{SMatrix, SVector};
 use std::sync::Arc;
 
@@ -58,59 +62,48 @@ fn matrix_at<const D: usize>(columns: &[[&[f64]; D]; D], p: usize) -> SMatrix<f6
     SMatrix::<f64, D, D>::from_fn(|i, j| columns[i][j][p])
 }
 
+/// Point p of the symmetric part of matrix columns, (m + mᵀ)/2 (entry by entry as
+/// `manufactured::symmetric`).
+fn symmetric_at<const D: usize>(columns: &[[&[f64]; D]; D], p: usize) -> Tensor<D> {
+    Tensor::<D>::from_fn(|i, j| (columns[i][j][p] + columns[j][i][p]) * 0.5)
+}
+
+/// The columns of ∂_j ∇w for j < D (`at(i, k, j)` = ∂²w_i/∂x_k∂x_j), by j.
+fn second_columns<'a, const D: usize>(
+    columns: &'a Columns<'_, D>,
+    at: impl Fn(usize, usize, usize) -> Quantity,
+) -> [[[&'a [f64]; D]; D]; D] {
+    std::array::from_fn(|j| matrix_columns(columns, |i, k| at(i, k, j)))
+}
+
 /// Point p of vector columns.
 fn vector_at<const D: usize>(columns: &[&[f64]; D], p: usize) -> SVector<f64, D> {
     SVector::<f64, D>::from_fn(|i, _| columns[i][p])
 }
 
-/// The [`PointState`]s of one batch, `each(p, state)` (fields a program does not compute are 0).
+/// The [`PointState`]s of one batch for the boundary data, `each(p, state)`: u, u̇, ∇u, ∇u̇, β
+/// (the second derivatives and ∇β, which only f0 needs, are 0; f0 reads its columns directly).
 fn point_states<const D: usize>(
     columns: &Columns<'_, D>,
     count: usize,
-    second: bool,
-    values: bool,
     mut each: impl FnMut(usize, &PointState<D>),
 ) {
     let gradient = matrix_columns(columns, Quantity::Gradient);
     let rate_gradient = matrix_columns(columns, Quantity::RateGradient);
-    let hessian: Option<[[[&[f64]; D]; D]; D]> = second.then(|| {
-        std::array::from_fn(|j| {
-            std::array::from_fn(|i| {
-                std::array::from_fn(|k| columns.get(Quantity::Hessian(i, k, j)))
-            })
-        })
-    });
-    let rate_hessian: Option<[[[&[f64]; D]; D]; D]> = second.then(|| {
-        std::array::from_fn(|j| {
-            std::array::from_fn(|i| {
-                std::array::from_fn(|k| columns.get(Quantity::RateHessian(i, k, j)))
-            })
-        })
-    });
-    let u: Option<[&[f64]; D]> =
-        values.then(|| std::array::from_fn(|i| columns.get(Quantity::U(i))));
-    let rate: Option<[&[f64]; D]> =
-        values.then(|| std::array::from_fn(|i| columns.get(Quantity::Rate(i))));
+    let u: [&[f64]; D] = std::array::from_fn(|i| columns.get(Quantity::U(i)));
+    let rate: [&[f64]; D] = std::array::from_fn(|i| columns.get(Quantity::Rate(i)));
     let damage = columns.get(Quantity::Damage);
-    let damage_gradient: Option<[&[f64]; D]> =
-        second.then(|| std::array::from_fn(|j| columns.get(Quantity::DamageGradient(j))));
     let zero = SMatrix::<f64, D, D>::zeros();
     for (p, &beta) in damage.iter().enumerate().take(count) {
         let state = PointState {
-            displacement: u.as_ref().map_or(SVector::zeros(), |c| vector_at(c, p)),
-            velocity: rate.as_ref().map_or(SVector::zeros(), |c| vector_at(c, p)),
+            displacement: vector_at(&u, p),
+            velocity: vector_at(&rate, p),
             displacement_gradient: matrix_at(&gradient, p),
             velocity_gradient: matrix_at(&rate_gradient, p),
-            displacement_second: hessian
-                .as_ref()
-                .map_or([zero; D], |h| std::array::from_fn(|j| matrix_at(&h[j], p))),
-            velocity_second: rate_hessian
-                .as_ref()
-                .map_or([zero; D], |h| std::array::from_fn(|j| matrix_at(&h[j], p))),
+            displacement_second: [zero; D],
+            velocity_second: [zero; D],
             damage: beta,
-            damage_gradient: damage_gradient
-                .as_ref()
-                .map_or(SVector::zeros(), |c| vector_at(c, p)),
+            damage_gradient: SVector::zeros(),
         };
         each(p, &state);
     }
@@ -146,10 +139,37 @@ impl<const D: usize> BatchVectorField<D> for BodyForce<D> {
         data.programs
             .body_force
             .for_batches(points, time, |offset, columns| {
-                let count = points[offset..].len().min(super::programs::BATCH);
-                point_states(columns, count, true, false, |p, state| {
-                    out[offset + p] = body_force_at(&data.laws, state);
-                });
+                // Straight from the columns to the strain jets (no point state per point).
+                let count = points[offset..].len().min(BATCH);
+                let gradient = matrix_columns(columns, Quantity::Gradient);
+                let rate_gradient = matrix_columns(columns, Quantity::RateGradient);
+                let second = second_columns(columns, Quantity::Hessian);
+                let rate_second = second_columns(columns, Quantity::RateHessian);
+                let damage = columns.get(Quantity::Damage);
+                let damage_gradient: [&[f64]; D] =
+                    std::array::from_fn(|j| columns.get(Quantity::DamageGradient(j)));
+                // Jets filled in place point after point (building them anew per point costs
+                // a copy of D tensors each).
+                let empty = || StrainJet {
+                    strain: Tensor::<D>::zeros(),
+                    derivatives: [Tensor::<D>::zeros(); D],
+                };
+                let (mut rate, mut strain) = (empty(), empty());
+                for (p, value) in out[offset..offset + count].iter_mut().enumerate() {
+                    rate.strain = symmetric_at(&rate_gradient, p);
+                    strain.strain = symmetric_at(&gradient, p);
+                    for j in 0..D {
+                        rate.derivatives[j] = symmetric_at(&rate_second[j], p);
+                        strain.derivatives[j] = symmetric_at(&second[j], p);
+                    }
+                    *value = body_force_of_strains(
+                        &data.laws,
+                        &rate,
+                        &strain,
+                        damage[p],
+                        &vector_at(&damage_gradient, p),
+                    );
+                }
             });
     }
 }
@@ -160,8 +180,8 @@ impl<const D: usize> BatchBoundaryVectorField<D> for Traction<D> {
         data.programs
             .boundary
             .for_batches(points, time, |offset, columns| {
-                let count = points[offset..].len().min(super::programs::BATCH);
-                point_states(columns, count, false, true, |p, state| {
+                let count = points[offset..].len().min(BATCH);
+                point_states(columns, count, |p, state| {
                     out[offset + p] = traction_at(&data.laws, state, &normals[offset + p]);
                 });
             });
@@ -174,11 +194,11 @@ impl<const D: usize> BatchBoundaryVectorField<D> for ContactTraction<D> {
         data.programs
             .boundary
             .for_batches(points, time, |offset, columns| {
-                let count = points[offset..].len().min(super::programs::BATCH);
+                let count = points[offset..].len().min(BATCH);
                 let xi: [&[f64]; D] =
                     std::array::from_fn(|i| columns.get(Quantity::StickTraction(i)));
                 let gap = columns.get(Quantity::Gap);
-                point_states(columns, count, false, true, |p, state| {
+                point_states(columns, count, |p, state| {
                     out[offset + p] = contact_traction_at(
                         &data.laws,
                         state,
@@ -197,20 +217,31 @@ impl<const D: usize> BatchScalarField<D> for DamageSupply<D> {
         data.programs
             .supply
             .for_batches(points, time, |offset, columns| {
-                let count = points[offset..].len().min(super::programs::BATCH);
+                let count = points[offset..].len().min(BATCH);
                 let gradient = matrix_columns(columns, Quantity::Gradient);
-                let beta = columns.get(Quantity::Damage);
+                let beta = &columns.get(Quantity::Damage)[..count];
                 let rate = columns.get(Quantity::DamageRate);
                 let laplacian = columns.get(Quantity::DamageLaplacian);
                 let multiplier = columns.get(Quantity::Multiplier);
-                for p in 0..count {
+                // φ(ε(u), β) over the batch in one call of the law.
+                let mut strains = [Tensor::<D>::zeros(); BATCH];
+                for (p, strain) in strains[..count].iter_mut().enumerate() {
+                    *strain = symmetric_at(&gradient, p);
+                }
+                let mut sources = [0.0; BATCH];
+                data.laws.damage_source.source_batch(
+                    &strains[..count],
+                    beta,
+                    &mut sources[..count],
+                );
+                for (p, value) in out[offset..offset + count].iter_mut().enumerate() {
                     let jet = DamageJet {
                         value: beta[p],
                         rate: rate[p],
                         laplacian: laplacian[p],
                         multiplier: multiplier[p],
                     };
-                    out[offset + p] = damage_supply_at(&data.laws, &jet, &matrix_at(&gradient, p));
+                    *value = damage_supply_of_source(&data.laws, &jet, sources[p]);
                 }
             });
     }
@@ -222,7 +253,7 @@ impl<const D: usize> BatchBoundaryScalarField<D> for DamageFlux<D> {
         data.programs
             .flux
             .for_batches(points, time, |offset, columns| {
-                let count = points[offset..].len().min(super::programs::BATCH);
+                let count = points[offset..].len().min(BATCH);
                 let gradient: [&[f64]; D] =
                     std::array::from_fn(|j| columns.get(Quantity::DamageGradient(j)));
                 for p in 0..count {
