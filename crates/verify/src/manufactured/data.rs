@@ -4,11 +4,13 @@
 //! points; the chain rule through the laws is applied per point (the `*_at` / `*_of_*`
 //! formulas of the parent module): f0 by one call per law and point of its stress divergence
 //! (`stress_divergence`, closed forms for the built-in laws) on strain jets read straight from
-//! the columns, q by one batch call of φ (`DamageSource::source_batch`).
+//! the columns, q by one batch call of φ (`DamageSource::source_batch`). f0 and q, which the
+//! solver evaluates at the same points one after the other, come from one program (see
+//! [`ManufacturedData`]).
 
 use super::programs::{
-    body_force_quantities, boundary_quantities, error_quantities, flux_quantities,
-    supply_quantities, Columns, Quantity, QuantityProgram, BATCH,
+    boundary_quantities, bulk_quantities, error_quantities, flux_quantities, supply_quantities,
+    Columns, Quantity, QuantityProgram, BATCH,
 };
 use super::{
     body_force_of_strains, contact_traction_at, damage_flux_at, damage_supply_of_source,
@@ -19,16 +21,18 @@ use contact_damage::fields::{
 };
 use contact_damage::laws::Tensor;
 use nalgebra::{SMatrix, SVector};
+use std::cell::RefCell;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
 
 /// The compiled programs of one case (built once, shared by every run of its studies).
 #[derive(Debug, Clone)]
 pub struct ExactPrograms<const D: usize> {
-    /// f0: first and second derivatives of u and u̇, β, ∇β.
-    pub body_force: QuantityProgram<D>,
+    /// f0 and q at once: first and second derivatives of u and u̇, β, ∇β, β̇, Δβ, η.
+    pub bulk: QuantityProgram<D>,
     /// f2, f3: u, u̇, ∇u, ∇u̇, β, ξ, g.
     pub boundary: QuantityProgram<D>,
-    /// q: ∇u, β, β̇, Δβ, η.
+    /// q alone (where f0 was not just evaluated at the same points): ∇u, β, β̇, Δβ, η.
     pub supply: QuantityProgram<D>,
     /// κ∂β/∂ν: ∇β.
     pub flux: QuantityProgram<D>,
@@ -40,7 +44,7 @@ impl<const D: usize> ExactPrograms<D> {
     /// Differentiates and compiles the exact fields of `exact`.
     pub fn new(exact: &ExactSolution<D>) -> Self {
         Self {
-            body_force: QuantityProgram::new(exact, &body_force_quantities::<D>()),
+            bulk: QuantityProgram::new(exact, &bulk_quantities::<D>()),
             boundary: QuantityProgram::new(exact, &boundary_quantities::<D>()),
             supply: QuantityProgram::new(exact, &supply_quantities::<D>()),
             flux: QuantityProgram::new(exact, &flux_quantities::<D>()),
@@ -110,15 +114,76 @@ fn point_states<const D: usize>(
 }
 
 /// f0, f2, f3, q and the damage flux of one case with its laws, as solver fields.
+///
+/// f0 and q come from one program ([`ExactPrograms::bulk`]): the solver's load assembly
+/// evaluates f0, then q, at the same points of a chunk on the same thread, so [`BodyForce`]
+/// computes both and hands q over to this thread's next [`DamageSupply`] evaluation, which
+/// takes it if it comes from the same data for the same time and the same points (compared
+/// bit for bit); otherwise q is evaluated by its own program ([`ExactPrograms::supply`]).
+/// Both ways give bitwise the same q (the same instructions on the same operands).
 pub struct ManufacturedData<const D: usize> {
     programs: Arc<ExactPrograms<D>>,
     laws: Laws<D>,
+    /// Names this data in a hand-over (unique per process).
+    id: u64,
 }
 
 impl<const D: usize> ManufacturedData<D> {
     /// The data of `programs` with `laws`.
     pub fn new(programs: Arc<ExactPrograms<D>>, laws: Laws<D>) -> Arc<Self> {
-        Arc::new(Self { programs, laws })
+        static NEXT_ID: AtomicU64 = AtomicU64::new(0);
+        Arc::new(Self {
+            programs,
+            laws,
+            id: NEXT_ID.fetch_add(1, Ordering::Relaxed),
+        })
+    }
+}
+
+/// q at the points of the last f0 evaluation on this thread (see [`ManufacturedData`]).
+#[derive(Default)]
+struct SupplyHandOver {
+    /// [`ManufacturedData::id`], or None when empty.
+    data: Option<u64>,
+    time: u64,
+    /// The coordinates, bit for bit.
+    points: Vec<u64>,
+    supply: Vec<f64>,
+}
+
+thread_local! {
+    static SUPPLY_HAND_OVER: RefCell<SupplyHandOver> = RefCell::new(SupplyHandOver::default());
+}
+
+/// The coordinates of `points` as bits.
+fn coordinate_bits<const D: usize>(points: &[[f64; D]]) -> impl Iterator<Item = u64> + '_ {
+    points.iter().flatten().map(|x| x.to_bits())
+}
+
+/// q at one batch of the columns of [`ExactPrograms::bulk`] or [`ExactPrograms::supply`]:
+/// φ(ε(u), β) by one call of the law, then q = β̇ − κΔβ + η − φ.
+fn supply_batch<const D: usize>(laws: &Laws<D>, columns: &Columns<'_, D>, out: &mut [f64]) {
+    let count = out.len();
+    let gradient = matrix_columns(columns, Quantity::Gradient);
+    let beta = &columns.get(Quantity::Damage)[..count];
+    let rate = columns.get(Quantity::DamageRate);
+    let laplacian = columns.get(Quantity::DamageLaplacian);
+    let multiplier = columns.get(Quantity::Multiplier);
+    let mut strains = [Tensor::<D>::zeros(); BATCH];
+    for (p, strain) in strains[..count].iter_mut().enumerate() {
+        *strain = symmetric_at(&gradient, p);
+    }
+    let mut sources = [0.0; BATCH];
+    laws.damage_source
+        .source_batch(&strains[..count], beta, &mut sources[..count]);
+    for (p, value) in out.iter_mut().enumerate() {
+        let jet = DamageJet {
+            value: beta[p],
+            rate: rate[p],
+            laplacian: laplacian[p],
+            multiplier: multiplier[p],
+        };
+        *value = damage_supply_of_source(laws, &jet, sources[p]);
     }
 }
 
@@ -136,8 +201,9 @@ pub struct DamageFlux<const D: usize>(pub Arc<ManufacturedData<D>>);
 impl<const D: usize> BatchVectorField<D> for BodyForce<D> {
     fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [[f64; D]]) {
         let data = &self.0;
+        let mut supply = vec![0.0; points.len()];
         data.programs
-            .body_force
+            .bulk
             .for_batches(points, time, |offset, columns| {
                 // Straight from the columns to the strain jets (no point state per point).
                 let count = points[offset..].len().min(BATCH);
@@ -170,7 +236,15 @@ impl<const D: usize> BatchVectorField<D> for BodyForce<D> {
                         &vector_at(&damage_gradient, p),
                     );
                 }
+                supply_batch(&data.laws, columns, &mut supply[offset..offset + count]);
             });
+        SUPPLY_HAND_OVER.with_borrow_mut(|hand_over| {
+            hand_over.data = Some(data.id);
+            hand_over.time = time.to_bits();
+            hand_over.points.clear();
+            hand_over.points.extend(coordinate_bits(points));
+            hand_over.supply = supply;
+        });
     }
 }
 
@@ -214,35 +288,25 @@ impl<const D: usize> BatchBoundaryVectorField<D> for ContactTraction<D> {
 impl<const D: usize> BatchScalarField<D> for DamageSupply<D> {
     fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [f64]) {
         let data = &self.0;
+        let handed_over = SUPPLY_HAND_OVER.with_borrow_mut(|hand_over| {
+            let same = hand_over.data == Some(data.id)
+                && hand_over.time == time.to_bits()
+                && hand_over.supply.len() == out.len()
+                && hand_over.points.iter().copied().eq(coordinate_bits(points));
+            if same {
+                out.copy_from_slice(&hand_over.supply);
+            }
+            hand_over.data = None;
+            same
+        });
+        if handed_over {
+            return;
+        }
         data.programs
             .supply
             .for_batches(points, time, |offset, columns| {
                 let count = points[offset..].len().min(BATCH);
-                let gradient = matrix_columns(columns, Quantity::Gradient);
-                let beta = &columns.get(Quantity::Damage)[..count];
-                let rate = columns.get(Quantity::DamageRate);
-                let laplacian = columns.get(Quantity::DamageLaplacian);
-                let multiplier = columns.get(Quantity::Multiplier);
-                // φ(ε(u), β) over the batch in one call of the law.
-                let mut strains = [Tensor::<D>::zeros(); BATCH];
-                for (p, strain) in strains[..count].iter_mut().enumerate() {
-                    *strain = symmetric_at(&gradient, p);
-                }
-                let mut sources = [0.0; BATCH];
-                data.laws.damage_source.source_batch(
-                    &strains[..count],
-                    beta,
-                    &mut sources[..count],
-                );
-                for (p, value) in out[offset..offset + count].iter_mut().enumerate() {
-                    let jet = DamageJet {
-                        value: beta[p],
-                        rate: rate[p],
-                        laplacian: laplacian[p],
-                        multiplier: multiplier[p],
-                    };
-                    *value = damage_supply_of_source(&data.laws, &jet, sources[p]);
-                }
+                supply_batch(&data.laws, columns, &mut out[offset..offset + count]);
             });
     }
 }
@@ -329,6 +393,67 @@ mod tests {
             checked >= 4,
             "only {checked} built-in cases of dimension {D}"
         );
+    }
+
+    /// q evaluated by itself at `points`, `t` (a fresh data object: nothing handed over).
+    fn supply_alone<const D: usize>(case: &Case<D>, points: &[[f64; D]], t: f64) -> Vec<u64> {
+        let data = ManufacturedData::new(case.programs.clone(), case.laws.clone());
+        let mut q = vec![0.0; points.len()];
+        DamageSupply(data).evaluate(points, t, &mut q);
+        q.iter().map(|v| v.to_bits()).collect()
+    }
+
+    fn supply_hand_over_is_bitwise_and_only_for_the_same_points_and_time<const D: usize>(
+        name: &str,
+    ) {
+        let text = BUILT_IN_CASES
+            .iter()
+            .find(|(case, _)| *case == name)
+            .unwrap()
+            .1;
+        let case = Case::<D>::new(parse_case_file(text, name).unwrap(), name).unwrap();
+        let data = ManufacturedData::new(case.programs.clone(), case.laws.clone());
+        let points: Vec<[f64; D]> = (0..100)
+            .map(|p| std::array::from_fn(|i| ((p * (5 + 2 * i) + i) % 41) as f64 / 40.0))
+            .collect();
+        let mut moved = points.clone();
+        moved[57][0] += 0.01;
+        let mut forces = vec![[0.0; D]; points.len()];
+        let mut q = vec![0.0; points.len()];
+        let bits = |q: &[f64]| q.iter().map(|v| v.to_bits()).collect::<Vec<u64>>();
+        let handed_over = || SUPPLY_HAND_OVER.with_borrow(|hand_over| hand_over.data);
+        // Same data, points and time: q is taken from the f0 evaluation, bitwise its own value.
+        BodyForce(data.clone()).evaluate(&points, 0.6, &mut forces);
+        assert_eq!(handed_over(), Some(data.id));
+        DamageSupply(data.clone()).evaluate(&points, 0.6, &mut q);
+        assert_eq!(handed_over(), None, "the hand-over is taken once");
+        assert_eq!(bits(&q), supply_alone(&case, &points, 0.6));
+        // Another time, other points, or other data: evaluated anew.
+        BodyForce(data.clone()).evaluate(&points, 0.6, &mut forces);
+        DamageSupply(data.clone()).evaluate(&points, 0.7, &mut q);
+        assert_eq!(bits(&q), supply_alone(&case, &points, 0.7));
+        BodyForce(data.clone()).evaluate(&points, 0.6, &mut forces);
+        DamageSupply(data.clone()).evaluate(&moved, 0.6, &mut q);
+        assert_eq!(bits(&q), supply_alone(&case, &moved, 0.6));
+        assert_ne!(bits(&q)[57], supply_alone(&case, &points, 0.6)[57]);
+        let other = {
+            let mut laws = case.laws.clone();
+            laws.damage_diffusion *= 2.0;
+            ManufacturedData::new(case.programs.clone(), laws)
+        };
+        BodyForce(data.clone()).evaluate(&points, 0.6, &mut forces);
+        DamageSupply(other).evaluate(&points, 0.6, &mut q);
+        assert_ne!(bits(&q), supply_alone(&case, &points, 0.6));
+    }
+
+    #[test]
+    fn supply_hand_over_is_bitwise_and_only_for_the_same_points_and_time_in_2d() {
+        supply_hand_over_is_bitwise_and_only_for_the_same_points_and_time::<2>("zones2d");
+    }
+
+    #[test]
+    fn supply_hand_over_is_bitwise_and_only_for_the_same_points_and_time_in_3d() {
+        supply_hand_over_is_bitwise_and_only_for_the_same_points_and_time::<3>("zones3d");
     }
 
     #[test]

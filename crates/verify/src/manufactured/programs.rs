@@ -5,8 +5,8 @@
 //!
 //! Why symbolic differentiation rather than dual numbers in batches: see
 //! [`crate::expr::derivative`]. Each consumer gets its own program with only the quantities it
-//! reads (dead code removed): f0 needs the second derivatives, the boundary data and the errors
-//! only first derivatives, the damage flux only ∇β.
+//! reads (dead code removed): f0 (with q, at the same points) needs the second derivatives, the
+//! boundary data and the errors only first derivatives, the damage flux only ∇β.
 
 use super::ExactSolution;
 use crate::expr::derivative::Value;
@@ -243,6 +243,18 @@ pub fn supply_quantities<const D: usize>() -> Vec<Quantity> {
         .collect();
     q.extend([
         Quantity::Damage,
+        Quantity::DamageRate,
+        Quantity::DamageLaplacian,
+        Quantity::Multiplier,
+    ]);
+    q
+}
+
+/// The quantities of f0 and q together ([`body_force_quantities`] and
+/// [`supply_quantities`]): the solver evaluates both at the same points, one after the other.
+pub fn bulk_quantities<const D: usize>() -> Vec<Quantity> {
+    let mut q = body_force_quantities::<D>();
+    q.extend([
         Quantity::DamageRate,
         Quantity::DamageLaplacian,
         Quantity::Multiplier,
