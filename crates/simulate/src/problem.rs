@@ -67,6 +67,7 @@
 //! Every error names the file, the key and the problem ([`InputError::File`] of kind [`FileKind::Problem`]).
 
 use crate::watch::LoadWatch;
+use contact_damage::fields::{BatchBoundaryVectorField, BatchVectorField};
 use contact_damage::gmsh::{read_msh, GroupRef, PhysicalMap};
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::obstacle::BoxQpMethod;
@@ -75,6 +76,7 @@ use contact_damage::scheme::{
 };
 use contact_damage::vtk::VtuEncoding;
 use contact_input::expr::compiled::with_registers;
+use contact_input::expr::split::BATCH;
 use contact_input::expr::{Expr, Program};
 use contact_input::file::{parse_expr, parse_toml};
 use contact_input::laws::LawsFile;
@@ -545,6 +547,81 @@ impl<const N: usize> CompiledField<N> {
     }
 }
 
+/// f0 or f2 given by N expressions, evaluated over a whole batch of points per call (the
+/// solver passes all quadrature points of a chunk of cells, or of the boundary facets): the
+/// interpreter dispatches once per instruction and batch of [`BATCH`] points instead of once
+/// per instruction and point ([`Program::eval_batch`], bitwise the values of
+/// [`CompiledField::eval`]). A non-finite value is recorded by the watch under `key`.
+struct BatchLoad<const N: usize> {
+    program: Program,
+    key: &'static str,
+    symbol: &'static str,
+    watch: LoadWatch,
+    /// The factor of `loads.traction_curve` (f2 only).
+    curve: Option<LoadCurve>,
+}
+
+impl<const N: usize> BatchLoad<N> {
+    /// The values at `points` (and `normals`, the last variables of f2) at time `time`, with the
+    /// curve factor: `each(p, values at points[p])`.
+    fn for_points<const D: usize>(
+        &self,
+        points: &[[f64; D]],
+        normals: Option<&[[f64; D]]>,
+        time: f64,
+        mut each: impl FnMut(usize, [f64; N]),
+    ) {
+        let variables = self.program.variable_count();
+        let factor = self.curve.as_ref().map(|curve| curve.factor(time));
+        with_registers(|registers: &mut Vec<f64>| {
+            // x, y, z (zero beyond D), t, then the normal (zero beyond D).
+            let mut inputs = [[0.0; BATCH]; MAX_VARIABLES];
+            inputs[3] = [time; BATCH];
+            for (batch, chunk) in points.chunks(BATCH).enumerate() {
+                let offset = batch * BATCH;
+                let count = chunk.len();
+                for (p, x) in chunk.iter().enumerate() {
+                    for (j, &xj) in x.iter().enumerate() {
+                        inputs[j][p] = xj;
+                    }
+                    if let Some(normals) = normals {
+                        for (j, &nj) in normals[offset + p].iter().enumerate() {
+                            inputs[4 + j][p] = nj;
+                        }
+                    }
+                }
+                let columns: [&[f64]; MAX_VARIABLES] = std::array::from_fn(|v| &inputs[v][..count]);
+                self.program
+                    .eval_batch(&columns[..variables], count, registers);
+                for p in 0..count {
+                    let values: [f64; N] = std::array::from_fn(|i| {
+                        let value = self.program.batch_output(registers, count, i)[p];
+                        factor.map_or(value, |factor| value * factor)
+                    });
+                    let point = offset + p;
+                    each(
+                        point,
+                        self.watch
+                            .check(self.key, self.symbol, values, &points[point], time),
+                    );
+                }
+            }
+        })
+    }
+}
+
+impl<const D: usize> BatchVectorField<D> for BatchLoad<D> {
+    fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [[f64; D]]) {
+        self.for_points(points, None, time, |p, values| out[p] = values);
+    }
+}
+
+impl<const D: usize> BatchBoundaryVectorField<D> for BatchLoad<D> {
+    fn evaluate(&self, points: &[[f64; D]], normals: &[[f64; D]], time: f64, out: &mut [[f64; D]]) {
+        self.for_points(points, Some(normals), time, |p, values| out[p] = values);
+    }
+}
+
 fn groups(list: &[GroupFile]) -> Vec<GroupRef> {
     list.iter()
         .map(|g| match g {
@@ -798,23 +875,22 @@ impl<const D: usize> ProblemSetup<D> {
 
         let load_watch = LoadWatch::default();
         // The loads run at every quadrature point of every step: compiled once here.
-        let body_force: Option<contact_damage::scheme::VectorField<D>> = body_force.map(|force| {
-            let watch = load_watch.clone();
-            let force = CompiledField::new(&force);
-            Arc::new(move |x: &[f64; D], t: f64| {
-                let value = force.eval(x, &[t]);
-                watch.check("loads.body_force", "f0", value, x, t)
+        let body_force = body_force.map(|force| {
+            Arc::new(BatchLoad {
+                program: Program::fuse(&force.iter().collect::<Vec<_>>()),
+                key: "loads.body_force",
+                symbol: "f0",
+                watch: load_watch.clone(),
+                curve: None,
             }) as contact_damage::scheme::VectorField<D>
         });
         let traction = traction.map(|traction| {
-            let watch = load_watch.clone();
-            let traction = CompiledField::new(&traction);
-            Arc::new(move |x: &[f64; D], t: f64, normal: &[f64; D]| {
-                let mut extra = [t, 0.0, 0.0, 0.0];
-                extra[1..1 + D].copy_from_slice(normal);
-                let factor = curve.as_ref().map_or(1.0, |curve| curve.factor(t));
-                let value = traction.eval(x, &extra).map(|f| f * factor);
-                watch.check("loads.traction", "f2", value, x, t)
+            Arc::new(BatchLoad {
+                program: Program::fuse(&traction.iter().collect::<Vec<_>>()),
+                key: "loads.traction",
+                symbol: "f2",
+                watch: load_watch.clone(),
+                curve,
             }) as contact_damage::scheme::BoundaryVectorField<D>
         });
         let gap = CompiledField::new(&[gap]);
@@ -1251,5 +1327,95 @@ mod tests {
                 assert_eq!(a.to_bits(), b.to_bits(), "{a} vs {b} at x = {x:?}, t = {t}");
             }
         }
+    }
+
+    /// The batched loads (f0 over cell points, f2 over facet points with their normals and the
+    /// load curve) give the point-by-point compiled values bit for bit, over more than two
+    /// batches, in 2D and 3D.
+    fn batched_loads_are_bitwise_the_compiled_loads<const D: usize>() {
+        let constants = BTreeMap::new();
+        let parse =
+            |source: &str, variables: &[&str]| Expr::parse(source, variables, &constants).unwrap();
+        let traction: [Expr; D] = std::array::from_fn(|i| {
+            parse(
+                [
+                    "0.3*max(0, ny)*exp(-((x - 0.5)/0.4)^2)*(1 - cos(2*pi*t))/2 + nx*y",
+                    "-max(0, nz + ny)*sqrt(1 + x^2 + z^2)*sin(t)/(2 + nx)",
+                    "min(x, y)^2.5 + abs(z - 0.5)*nz",
+                ][i],
+                &TRACTION_VARIABLES,
+            )
+        });
+        let force: [Expr; D] = std::array::from_fn(|i| {
+            parse(
+                [
+                    "x*y - z^3 + t",
+                    "tanh(x - t)*log(2 + y)",
+                    "min(x, y)^2.5 + abs(z - 0.5)",
+                ][i],
+                &FIELD_VARIABLES,
+            )
+        });
+        let curve = LoadCurve::new(
+            "test",
+            "curve",
+            &[vec![0.0, 0.0], vec![0.7, 1.3], vec![2.0, 0.4]],
+        )
+        .unwrap();
+        let batched = |exprs: &[Expr; D], curve: Option<LoadCurve>| BatchLoad::<D> {
+            program: Program::fuse(&exprs.iter().collect::<Vec<_>>()),
+            key: "key",
+            symbol: "f",
+            watch: LoadWatch::default(),
+            curve,
+        };
+        let (batched_force, batched_traction) = (
+            batched(&force, None),
+            batched(&traction, Some(curve.clone())),
+        );
+        let (compiled_force, compiled_traction) =
+            (CompiledField::new(&force), CompiledField::new(&traction));
+        let points: Vec<[f64; D]> = (0..77)
+            .map(|p| std::array::from_fn(|i| ((p * (7 + 4 * i) + 3 * i) % 97) as f64 / 48.0))
+            .collect();
+        let normals: Vec<[f64; D]> = (0..77)
+            .map(|p| {
+                let angle = 0.37 * p as f64;
+                std::array::from_fn(|i| [angle.cos(), angle.sin(), 0.0][i])
+            })
+            .collect();
+        for t in [0.0, 0.45, 1.5] {
+            let mut forces = vec![[0.0; D]; points.len()];
+            BatchVectorField::evaluate(&batched_force, &points, t, &mut forces);
+            let mut tractions = vec![[0.0; D]; points.len()];
+            BatchBoundaryVectorField::evaluate(
+                &batched_traction,
+                &points,
+                &normals,
+                t,
+                &mut tractions,
+            );
+            for (p, x) in points.iter().enumerate() {
+                let mut extra = [t, 0.0, 0.0, 0.0];
+                extra[1..1 + D].copy_from_slice(&normals[p]);
+                let expected_traction = compiled_traction
+                    .eval(x, &extra)
+                    .map(|f| f * curve.factor(t));
+                let expected_force = compiled_force.eval(x, &[t]);
+                for (a, b) in forces[p]
+                    .iter()
+                    .chain(&tractions[p])
+                    .zip(expected_force.iter().chain(&expected_traction))
+                {
+                    assert_eq!(a.to_bits(), b.to_bits(), "{a} vs {b} at x = {x:?}, t = {t}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn batched_loads_are_bitwise_the_compiled_loads_in_2d_and_3d() {
+        batched_loads_are_bitwise_the_compiled_loads::<2>();
+        batched_loads_are_bitwise_the_compiled_loads::<3>();
     }
 }
