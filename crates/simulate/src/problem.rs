@@ -553,7 +553,7 @@ impl<const N: usize> CompiledField<N> {
 /// per instruction and point ([`Program::eval_batch`], bitwise the values of
 /// [`CompiledField::eval`]). A non-finite value is recorded by the watch under `key`.
 struct BatchLoad<const N: usize> {
-    program: Program,
+    field: CompiledField<N>,
     key: &'static str,
     symbol: &'static str,
     watch: LoadWatch,
@@ -562,6 +562,23 @@ struct BatchLoad<const N: usize> {
 }
 
 impl<const N: usize> BatchLoad<N> {
+    /// The field of `exprs`, its non-finite values recorded by `watch` under `key`.
+    fn new(
+        exprs: &[Expr; N],
+        key: &'static str,
+        symbol: &'static str,
+        watch: &LoadWatch,
+        curve: Option<LoadCurve>,
+    ) -> Self {
+        Self {
+            field: CompiledField::new(exprs),
+            key,
+            symbol,
+            watch: watch.clone(),
+            curve,
+        }
+    }
+
     /// The values at `points` (and `normals`, the last variables of f2) at time `time`, with the
     /// curve factor: `each(p, values at points[p])`.
     fn for_points<const D: usize>(
@@ -571,7 +588,8 @@ impl<const N: usize> BatchLoad<N> {
         time: f64,
         mut each: impl FnMut(usize, [f64; N]),
     ) {
-        let variables = self.program.variable_count();
+        let program = &self.field.program;
+        let variables = program.variable_count();
         let factor = self.curve.as_ref().map(|curve| curve.factor(time));
         with_registers(|registers: &mut Vec<f64>| {
             // x, y, z (zero beyond D), t, then the normal (zero beyond D).
@@ -591,11 +609,10 @@ impl<const N: usize> BatchLoad<N> {
                     }
                 }
                 let columns: [&[f64]; MAX_VARIABLES] = std::array::from_fn(|v| &inputs[v][..count]);
-                self.program
-                    .eval_batch(&columns[..variables], count, registers);
+                program.eval_batch(&columns[..variables], count, registers);
                 for p in 0..count {
                     let values: [f64; N] = std::array::from_fn(|i| {
-                        let value = self.program.batch_output(registers, count, i)[p];
+                        let value = program.batch_output(registers, count, i)[p];
                         factor.map_or(value, |factor| value * factor)
                     });
                     let point = offset + p;
@@ -876,22 +893,22 @@ impl<const D: usize> ProblemSetup<D> {
         let load_watch = LoadWatch::default();
         // The loads run at every quadrature point of every step: compiled once here.
         let body_force = body_force.map(|force| {
-            Arc::new(BatchLoad {
-                program: Program::fuse(&force.iter().collect::<Vec<_>>()),
-                key: "loads.body_force",
-                symbol: "f0",
-                watch: load_watch.clone(),
-                curve: None,
-            }) as contact_damage::scheme::VectorField<D>
+            Arc::new(BatchLoad::new(
+                &force,
+                "loads.body_force",
+                "f0",
+                &load_watch,
+                None,
+            )) as contact_damage::scheme::VectorField<D>
         });
         let traction = traction.map(|traction| {
-            Arc::new(BatchLoad {
-                program: Program::fuse(&traction.iter().collect::<Vec<_>>()),
-                key: "loads.traction",
-                symbol: "f2",
-                watch: load_watch.clone(),
+            Arc::new(BatchLoad::new(
+                &traction,
+                "loads.traction",
+                "f2",
+                &load_watch,
                 curve,
-            }) as contact_damage::scheme::BoundaryVectorField<D>
+            )) as contact_damage::scheme::BoundaryVectorField<D>
         });
         let gap = CompiledField::new(&[gap]);
         let gap_watch = load_watch.clone();
@@ -1362,12 +1379,8 @@ mod tests {
             &[vec![0.0, 0.0], vec![0.7, 1.3], vec![2.0, 0.4]],
         )
         .unwrap();
-        let batched = |exprs: &[Expr; D], curve: Option<LoadCurve>| BatchLoad::<D> {
-            program: Program::fuse(&exprs.iter().collect::<Vec<_>>()),
-            key: "key",
-            symbol: "f",
-            watch: LoadWatch::default(),
-            curve,
+        let batched = |exprs: &[Expr; D], curve: Option<LoadCurve>| {
+            BatchLoad::<D>::new(exprs, "key", "f", &LoadWatch::default(), curve)
         };
         let (batched_force, batched_traction) = (
             batched(&force, None),
