@@ -886,8 +886,35 @@ pub trait DamageSource<const D: usize>: Send + Sync {
             *value = self.source(strain, damage);
         }
     }
+    /// φ at the points of cells on each of which the strain is constant (P1 on affine
+    /// simplices, where the load assembly (5.2) has one ε(u_{n−1}) per cell): with `m` =
+    /// `damages.len() / cell_strains.len()` points per cell, in cell order,
+    /// `out[p] = φ(cell_strains[p / m], damages[p])`. `damages` and `out` have one length, a
+    /// multiple of the number of cells. The default repeats each strain for the points of its
+    /// cell and calls [`DamageSource::source_batch`]; a law that reduces ε to invariants
+    /// overrides it to compute them once per cell, with bitwise the same values.
+    fn source_cells(&self, cell_strains: &[Tensor<D>], damages: &[f64], out: &mut [f64]) {
+        let per_cell = points_per_cell(cell_strains.len(), damages.len());
+        let strains: Vec<Tensor<D>> = cell_strains
+            .iter()
+            .flat_map(|strain| std::iter::repeat_n(*strain, per_cell))
+            .collect();
+        self.source_batch(&strains, damages, out);
+    }
     /// Checks the parameters against (3.6).
     fn validate(&self) -> Result<()>;
+}
+
+/// The number of points per cell of [`DamageSource::source_cells`]: `points / cells`, which
+/// must divide exactly (0 without cells).
+pub fn points_per_cell(cells: usize, points: usize) -> usize {
+    let per_cell = points.checked_div(cells).unwrap_or(0);
+    debug_assert_eq!(
+        per_cell * cells,
+        points,
+        "points not a multiple of the cells"
+    );
+    per_cell
 }
 
 /// Truncated Frémond–Nedjar source (paper §2 and the remark after (3.7)):
@@ -916,6 +943,23 @@ impl<const D: usize> DamageSource<D> for TruncatedFremond {
         self.lambda_d * (1.0 - beta_hat) / beta_hat
             - 0.5 * strain.norm_squared().min(self.strain_energy_cap)
             + self.lambda_w
+    }
+    /// The strain energy term once per cell.
+    fn source_cells(&self, cell_strains: &[Tensor<D>], damages: &[f64], out: &mut [f64]) {
+        let per_cell = points_per_cell(cell_strains.len(), damages.len());
+        if per_cell == 0 {
+            return;
+        }
+        for (strain, (damages, out)) in cell_strains
+            .iter()
+            .zip(damages.chunks(per_cell).zip(out.chunks_mut(per_cell)))
+        {
+            let energy = 0.5 * strain.norm_squared().min(self.strain_energy_cap);
+            for (value, &damage) in out.iter_mut().zip(damages) {
+                let beta_hat = damage.clamp(self.damage_floor, 1.0);
+                *value = self.lambda_d * (1.0 - beta_hat) / beta_hat - energy + self.lambda_w;
+            }
+        }
     }
     fn validate(&self) -> Result<()> {
         check_finite("damage_source.lambda_d", self.lambda_d)?;
@@ -1508,6 +1552,40 @@ mod tests {
                     &damage_gradient),
             );
             proptest::prop_assert!(close(ours, chain), "moduli: {} vs {}", ours, chain);
+        }
+    }
+
+    proptest::proptest! {
+        /// One strain per cell (the P1 load path): the Frémond source with its strain energy
+        /// once per cell and the trait's default (repeated strains through `source`) give
+        /// bitwise the point-by-point values, with β on both sides of the floor and of 1 and
+        /// strain energies on both sides of the cap.
+        #[test]
+        fn source_cells_is_bitwise_the_pointwise_source(
+            entries in proptest::collection::vec(-3.0f64..3.0, 9 * 7),
+            damages in proptest::collection::vec(-0.5f64..1.5, 7 * 5),
+            per_cell in 1usize..6,
+        ) {
+            let strains: Vec<Tensor<3>> = entries.chunks(9).map(symmetric_from).collect();
+            let point_damages = &damages[..strains.len() * per_cell];
+            let fremond = TruncatedFremond {
+                lambda_d: 0.3,
+                lambda_w: -0.05,
+                damage_floor: 0.1,
+                strain_energy_cap: 4.0,
+            };
+            let closure = DamageSourceFn(|strain: &Tensor<3>, damage: f64| {
+                damage * damage - strain.trace() * strain.norm()
+            });
+            let laws: [&dyn DamageSource<3>; 2] = [&fremond, &closure];
+            for law in laws {
+                let mut values = vec![f64::NAN; point_damages.len()];
+                law.source_cells(&strains, point_damages, &mut values);
+                for (p, value) in values.iter().enumerate() {
+                    let pointwise = law.source(&strains[p / per_cell], point_damages[p]);
+                    proptest::prop_assert_eq!(value.to_bits(), pointwise.to_bits());
+                }
+            }
         }
     }
 

@@ -12,7 +12,6 @@
 //! in cell (and facet) order, so the loads do not depend on the number of threads.
 
 use crate::assembly::{field_strain, physical_gradients, FacetPoints};
-use crate::laws::Tensor;
 use crate::mesh::BoundaryPart;
 use crate::quadrature::QuadratureRule;
 use crate::scheme::{Data, Model, State};
@@ -174,7 +173,8 @@ impl<const D: usize> LoadQuadrature<D> {
             supply = vec![0.0; points.len()];
             q.evaluate(points, time, &mut supply);
         }
-        // ε(u_{n−1}) and β_{n−1} at every point of the chunk, then φ over the batch.
+        // ε(u_{n−1}) (once per cell for P1, where it is constant) and β_{n−1} at every point
+        // of the chunk, then φ over the batch.
         let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
         let mut strains = Vec::with_capacity(points.len());
         let mut betas = Vec::with_capacity(points.len());
@@ -187,15 +187,13 @@ impl<const D: usize> LoadQuadrature<D> {
             for (value, &node) in nodal_damage.iter_mut().zip(nodes) {
                 *value = damage[node];
             }
-            let mut strain = Tensor::<D>::zeros();
             for q in 0..nq {
                 if q == 0 || !constant_gradients {
                     physical_gradients(geometry, tab, q, &mut grads);
-                    strain = field_strain(nodes, &grads[..n], displacement);
+                    strains.push(field_strain(nodes, &grads[..n], displacement));
                     point_grads.extend_from_slice(&grads[..n]);
                 }
                 let values = &tab.values[q * n..(q + 1) * n];
-                strains.push(strain);
                 // β_{n−1} at the point
                 let mut beta = 0.0;
                 for (b, v) in nodal_damage[..n].iter().zip(values) {
@@ -205,7 +203,11 @@ impl<const D: usize> LoadQuadrature<D> {
             }
         }
         let mut sources = vec![0.0; points.len()];
-        damage_source.source_batch(&strains, &betas, &mut sources);
+        if constant_gradients {
+            damage_source.source_cells(&strains, &betas, &mut sources);
+        } else {
+            damage_source.source_batch(&strains, &betas, &mut sources);
+        }
         let mut weighted_sources = vec![0.0; nq];
         for (c, out) in out.chunks_mut(local).enumerate() {
             let cell_points = c * nq..(c + 1) * nq;
@@ -215,7 +217,7 @@ impl<const D: usize> LoadQuadrature<D> {
                 // in β) and contracted with each gradient once.
                 let grads = &point_grads[c * n..(c + 1) * n];
                 let stress = elasticity.weighted_stress_sum(
-                    &strains[c * nq],
+                    &strains[c],
                     &betas[cell_points.clone()],
                     &weights[cell_points.clone()],
                 );

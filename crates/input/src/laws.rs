@@ -8,8 +8,8 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use contact_damage::laws::{
-    DamageModuli, DamageSource, DamageSourceFn, DamagedHooke, Elasticity, InvariantJet,
-    InvariantPotential, LinearViscosity, ModuliElasticity, NormalComplianceCoulomb,
+    points_per_cell, DamageModuli, DamageSource, DamageSourceFn, DamagedHooke, Elasticity,
+    InvariantJet, InvariantPotential, LinearViscosity, ModuliElasticity, NormalComplianceCoulomb,
     PotentialViscosity, SaturatingViscosity, Tensor, TruncatedFremond, Viscosity,
 };
 use contact_damage::scheme::{DamageEvolution, Model};
@@ -421,6 +421,29 @@ impl<const D: usize> DamageSource<D> for ExpressionDamageSource {
             }
         });
     }
+    /// tr ε and ε:ε once per cell, then the program over batches of points.
+    fn source_cells(&self, cell_strains: &[Tensor<D>], damages: &[f64], out: &mut [f64]) {
+        let per_cell = points_per_cell(cell_strains.len(), damages.len());
+        let mut traces = Vec::with_capacity(damages.len());
+        let mut norms_squared = Vec::with_capacity(damages.len());
+        for strain in cell_strains {
+            traces.extend(std::iter::repeat_n(strain.trace(), per_cell));
+            norms_squared.extend(std::iter::repeat_n(strain.norm_squared(), per_cell));
+        }
+        with_registers(|registers: &mut Vec<f64>| {
+            for start in (0..damages.len()).step_by(BATCH) {
+                let batch = start..(start + BATCH).min(damages.len());
+                let count = batch.len();
+                let columns = [
+                    &damages[batch.clone()],
+                    &traces[batch.clone()],
+                    &norms_squared[batch.clone()],
+                ];
+                self.program.eval_batch(&columns, count, registers);
+                out[batch].copy_from_slice(self.program.batch_output(registers, count, 0));
+            }
+        });
+    }
     fn validate(&self) -> contact_damage::Result<()> {
         for beta in [0.0, 0.5, 1.0] {
             let v = self.expr.eval_f64(&[beta, 0.0, 0.0]);
@@ -527,6 +550,38 @@ mod tests {
             DamageSource::<2>::source_batch(&law, &strains, &damages, &mut batch);
             for ((strain, &damage), value) in strains.iter().zip(&damages).zip(&batch) {
                 let pointwise = DamageSource::<2>::source(&law, strain, damage);
+                prop_assert_eq!(value.to_bits(), pointwise.to_bits());
+            }
+        }
+
+        /// The P1 path of the load assembly (one strain per cell, invariants once per cell)
+        /// gives bitwise the point-by-point values, across batch boundaries and cells.
+        #[test]
+        fn expression_source_cells_is_bitwise_pointwise(
+            cells in proptest::collection::vec(
+                (-1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64,
+                 -1.0..1.0f64), 1..60),
+            damages in proptest::collection::vec(-2.0..2.0f64, 14),
+            per_cell in 1..15usize,
+        ) {
+            let expr = Expr::parse(
+                "0.02*(1 - beta)/max(beta, 0.05) - 10*min(eps_eps, 0.2) + exp(tr_eps)^2",
+                &SOURCE_VARIABLES,
+                &BTreeMap::new(),
+            )
+            .unwrap();
+            let law = ExpressionDamageSource::new(expr);
+            let strains: Vec<Tensor<3>> = cells
+                .iter()
+                .map(|&(a, b, c, d, e, f)| Tensor::<3>::new(a, b, c, b, d, e, c, e, f))
+                .collect();
+            let point_damages: Vec<f64> =
+                (0..cells.len() * per_cell).map(|p| damages[p % 14]).collect();
+            let mut values = vec![f64::NAN; point_damages.len()];
+            DamageSource::<3>::source_cells(&law, &strains, &point_damages, &mut values);
+            for (p, value) in values.iter().enumerate() {
+                let pointwise =
+                    DamageSource::<3>::source(&law, &strains[p / per_cell], point_damages[p]);
                 prop_assert_eq!(value.to_bits(), pointwise.to_bits());
             }
         }
