@@ -163,7 +163,7 @@ use faer::MatMut;
 use crate::error::{Error, History, Result};
 pub use crate::linalg::FactorKind;
 use crate::linalg::{multiply_into, CholeskySolver};
-use crate::multigrid::{Csr, Hierarchy};
+use crate::multigrid::{inverse, Csr, Hierarchy};
 
 /// Settings of [`BoxQpSolver`].
 #[derive(Debug, Clone, Copy)]
@@ -252,6 +252,17 @@ const INEXACT_FRACTION: f64 = 1e-2;
 /// Maximum number of iterative refinement steps after a reduced solve.
 const MAX_REFINEMENT_STEPS: usize = 3;
 
+/// The rows of `A` as the monotone multigrid's smoother reads them, built once per matrix.
+#[derive(Debug, Clone)]
+struct FineRows {
+    rows: Csr,
+    /// Per row, the number of columns below the diagonal ([`Csr::sweep_product`]).
+    lower_counts: Vec<usize>,
+    /// `1/a_ii`: the smoother multiplies by it (a division would lengthen the sweep's
+    /// dependency chain from row to row).
+    inverse_diagonal: Vec<f64>,
+}
+
 /// Solver of the sparse box-constrained QP `min ½ xᵀAx − bᵀx, lower ≤ x ≤ upper` with SPD `A`.
 ///
 /// Symbolic analysis done once per matrix pattern; numeric factorizations reused across solves.
@@ -264,7 +275,7 @@ pub struct BoxQpSolver {
     factor: Option<CholeskySolver>,
     /// `A` by rows and its truncated multigrid hierarchy ([`BoxQpMethod::MonotoneMultigrid`],
     /// built at construction).
-    multigrid: Option<(Csr, Hierarchy)>,
+    multigrid: Option<(FineRows, Hierarchy)>,
     /// Work vectors kept between calls (allocated by the first).
     workspace: Option<Workspace>,
 }
@@ -420,7 +431,12 @@ impl BoxQpSolver {
         let multigrid = (settings.method == BoxQpMethod::MonotoneMultigrid).then(|| {
             let rows = Csr::from_symmetric(&matrix);
             let hierarchy = Hierarchy::new(&rows);
-            (rows, hierarchy)
+            let fine = FineRows {
+                lower_counts: rows.lower_counts(),
+                inverse_diagonal: diagonal.iter().map(|&d| inverse(d)).collect(),
+                rows,
+            };
+            (fine, hierarchy)
         });
         Ok(Self {
             matrix,
@@ -596,16 +612,14 @@ impl BoxQpSolver {
         let tolerance = self.settings.tolerance;
         let exact = 0.1 * tolerance * problem.scale;
         let n = x.len();
-        let (rows, hierarchy) = self.multigrid.as_mut().expect("built for this method");
+        let (fine, hierarchy) = self.multigrid.as_mut().expect("built for this method");
+        let rows = &fine.rows;
         while stats.iterations < self.settings.max_iterations {
             stats.iterations += 1;
             // 1. Nonlinear smoothing: a symmetric projected Gauss–Seidel sweep.
-            projected_gauss_seidel(rows, &self.diagonal, problem, x, false);
-            projected_gauss_seidel(rows, &self.diagonal, problem, x, true);
-            rows.multiply(x, &mut work.gradient);
-            for i in 0..n {
-                work.gradient[i] -= problem.rhs[i];
-            }
+            projected_gauss_seidel(fine, problem, x, false);
+            projected_gauss_seidel(fine, problem, x, true);
+            residual_gradient(rows, x, problem.rhs, &mut work.gradient);
             let residual = scaled_kkt_residual(x, &work.gradient, problem);
             history.push(residual);
             if residual <= tolerance {
@@ -624,15 +638,17 @@ impl BoxQpSolver {
                 ));
             }
             // 3. Linear correction: A_FF d_F = −g_F by multigrid-preconditioned CG.
-            let free_gradient = free_gradient_norm(&work.fixed, &work.gradient);
-            let target = exact.max(CORRECTION_FRACTION * free_gradient);
+            // −g_F (zero on the fixed indices) and its size.
+            let mut free_gradient = 0.0_f64;
             for i in 0..n {
                 work.product[i] = if work.fixed[i] {
                     0.0
                 } else {
+                    free_gradient = free_gradient.max(work.gradient[i].abs());
                     -work.gradient[i]
                 };
             }
+            let target = exact.max(CORRECTION_FRACTION * free_gradient);
             multigrid_cg(
                 rows,
                 hierarchy,
@@ -651,8 +667,11 @@ impl BoxQpSolver {
                 work.direction[i] = corrected - x[i];
             }
             rows.multiply(&work.direction, &mut work.product);
-            let slope = dot(&work.gradient, &work.direction);
-            let curvature = dot(&work.direction, &work.product);
+            let (mut slope, mut curvature) = (0.0, 0.0);
+            for i in 0..n {
+                slope += work.gradient[i] * work.direction[i];
+                curvature += work.direction[i] * work.product[i];
+            }
             if curvature < 0.0 {
                 return Err(not_positive_definite(
                     "line search of the multigrid correction",
@@ -660,31 +679,25 @@ impl BoxQpSolver {
             }
             if slope < 0.0 && curvature > 0.0 {
                 let step = (-slope / curvature).min(1.0);
-                if step == 1.0 {
-                    // The projected point itself: indices clamped by the projection lie on
-                    // their bounds exactly.
-                    x.copy_from_slice(&work.trial);
-                } else {
-                    for i in 0..n {
-                        x[i] = clamp(
+                // x ← x + α d (for α = 1 the projected point itself: indices clamped by the
+                // projection lie on their bounds exactly) and g ← g + α A d (up to rounding; a
+                // converged iterate is confirmed below with the gradient recomputed from x).
+                for i in 0..n {
+                    x[i] = if step == 1.0 {
+                        work.trial[i]
+                    } else {
+                        clamp(
                             x[i] + step * work.direction[i],
                             problem.lower[i],
                             problem.upper[i],
-                        );
-                    }
-                }
-                // g ← g + α A d (up to rounding; a converged iterate is confirmed below with
-                // the gradient recomputed from x).
-                for i in 0..n {
+                        )
+                    };
                     work.gradient[i] += step * work.product[i];
                 }
             }
             let mut residual = scaled_kkt_residual(x, &work.gradient, problem);
             if residual <= tolerance {
-                rows.multiply(x, &mut work.gradient);
-                for i in 0..n {
-                    work.gradient[i] -= problem.rhs[i];
-                }
+                residual_gradient(rows, x, problem.rhs, &mut work.gradient);
                 residual = scaled_kkt_residual(x, &work.gradient, problem);
             }
             history.push(residual);
@@ -1266,13 +1279,7 @@ fn not_positive_definite(context: &str) -> Error {
 /// One projected Gauss–Seidel sweep (forward or backward): every `x_i` in turn is replaced by
 /// the exact minimizer of `q` over `[lower_i, upper_i]` with the other values fixed,
 /// `clamp(x_i − g_i / a_ii)`. Never increases `q`.
-fn projected_gauss_seidel(
-    rows: &Csr,
-    diagonal: &[f64],
-    problem: &Problem<'_>,
-    x: &mut [f64],
-    backward: bool,
-) {
+fn projected_gauss_seidel(fine: &FineRows, problem: &Problem<'_>, x: &mut [f64], backward: bool) {
     let n = x.len();
     for step in 0..n {
         let i = if backward { n - 1 - step } else { step };
@@ -1281,8 +1288,11 @@ fn projected_gauss_seidel(
             x[i] = lower;
             continue;
         }
-        let gradient = rows.row_product(i, x) - problem.rhs[i];
-        x[i] = clamp(x[i] - gradient / diagonal[i], lower, upper);
+        let gradient = fine
+            .rows
+            .sweep_product(i, x, fine.lower_counts[i], backward)
+            - problem.rhs[i];
+        x[i] = clamp(x[i] - gradient * fine.inverse_diagonal[i], lower, upper);
     }
 }
 
@@ -1315,12 +1325,8 @@ fn multigrid_cg(
     cg.search.copy_from_slice(&cg.preconditioned);
     let mut rho = dot(&cg.residual, &cg.preconditioned);
     for _ in 0..CORRECTION_ITERATIONS {
-        rows.multiply(&cg.search, &mut cg.image);
-        for i in 0..n {
-            if fixed[i] {
-                cg.image[i] = 0.0;
-            }
-        }
+        // A_FF s: the products of the free rows only.
+        rows.multiply_rows(&cg.search, &mut cg.image, |i| !fixed[i]);
         let curvature = dot(&cg.search, &cg.image);
         if curvature < 0.0 {
             return Err(not_positive_definite(
@@ -1385,6 +1391,13 @@ fn gauss_seidel_sweep(
 /// `max_i |v_i|`.
 fn max_norm(v: &[f64]) -> f64 {
     v.iter().fold(0.0_f64, |acc, value| acc.max(value.abs()))
+}
+
+/// `g = A x − b` from the rows of `A`.
+fn residual_gradient(rows: &Csr, x: &[f64], rhs: &[f64], gradient: &mut [f64]) {
+    for (i, (g, b)) in gradient.iter_mut().zip(rhs).enumerate() {
+        *g = rows.row_product(i, x) - b;
+    }
 }
 
 /// `uᵀv`.
@@ -1768,8 +1781,8 @@ mod tests {
             ..BoxQpSettings::default()
         };
         let mut deep = BoxQpSolver::new(matrix.clone(), BoxQpSettings::default()).unwrap();
-        if let Some((rows, hierarchy)) = deep.multigrid.as_mut() {
-            *hierarchy = Hierarchy::with_coarsest_size(rows, 4);
+        if let Some((fine, hierarchy)) = deep.multigrid.as_mut() {
+            *hierarchy = Hierarchy::with_coarsest_size(&fine.rows, 4);
         }
         vec![
             (
@@ -2112,8 +2125,8 @@ mod tests {
                 ..BoxQpSettings::default()
             };
             let mut solver = BoxQpSolver::new(matrix.clone(), settings).unwrap();
-            if let Some((rows, hierarchy)) = solver.multigrid.as_mut() {
-                *hierarchy = Hierarchy::with_coarsest_size(rows, 8);
+            if let Some((fine, hierarchy)) = solver.multigrid.as_mut() {
+                *hierarchy = Hierarchy::with_coarsest_size(&fine.rows, 8);
                 assert!(hierarchy.sizes().len() >= 3, "{:?}", hierarchy.sizes());
             }
             let result = solver.solve(&b, &lower, &upper, &mut x);
@@ -2297,8 +2310,8 @@ mod tests {
         }
         let matrix = sparse_from_dense(&dense);
         let mut solver = BoxQpSolver::new(matrix, BoxQpSettings::default()).unwrap();
-        if let Some((rows, hierarchy)) = solver.multigrid.as_mut() {
-            *hierarchy = Hierarchy::with_coarsest_size(rows, 16);
+        if let Some((fine, hierarchy)) = solver.multigrid.as_mut() {
+            *hierarchy = Hierarchy::with_coarsest_size(&fine.rows, 16);
         }
         let b: Vec<f64> = (0..n).map(|i| ((i * 37) % 11) as f64 - 5.0).collect();
         let err = unbounded_solve(&mut solver, &b).unwrap_err();
