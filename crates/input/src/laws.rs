@@ -526,6 +526,17 @@ mod tests {
         }
     }
 
+    /// The expression source of the batch tests (all three variables, a kink, a transcendental).
+    fn test_source() -> ExpressionDamageSource {
+        let expr = Expr::parse(
+            "0.02*(1 - beta)/max(beta, 0.05) - 10*min(eps_eps, 0.2) + exp(tr_eps)^2",
+            &SOURCE_VARIABLES,
+            &BTreeMap::new(),
+        )
+        .unwrap();
+        ExpressionDamageSource::new(expr)
+    }
+
     proptest! {
         /// The batch of the load assembly gives bitwise the point-by-point values, across
         /// batch boundaries.
@@ -534,13 +545,7 @@ mod tests {
             points in proptest::collection::vec(
                 (-2.0..2.0f64, -1.0..1.0f64, -1.0..1.0f64, -1.0..1.0f64), 1..300),
         ) {
-            let expr = Expr::parse(
-                "0.02*(1 - beta)/max(beta, 0.05) - 10*min(eps_eps, 0.2) + exp(tr_eps)^2",
-                &SOURCE_VARIABLES,
-                &BTreeMap::new(),
-            )
-            .unwrap();
-            let law = ExpressionDamageSource::new(expr);
+            let law = test_source();
             let strains: Vec<Tensor<2>> = points
                 .iter()
                 .map(|&(_, a, b, c)| Tensor::<2>::new(a, b, b, c))
@@ -564,13 +569,7 @@ mod tests {
             damages in proptest::collection::vec(-2.0..2.0f64, 14),
             per_cell in 1..15usize,
         ) {
-            let expr = Expr::parse(
-                "0.02*(1 - beta)/max(beta, 0.05) - 10*min(eps_eps, 0.2) + exp(tr_eps)^2",
-                &SOURCE_VARIABLES,
-                &BTreeMap::new(),
-            )
-            .unwrap();
-            let law = ExpressionDamageSource::new(expr);
+            let law = test_source();
             let strains: Vec<Tensor<3>> = cells
                 .iter()
                 .map(|&(a, b, c, d, e, f)| Tensor::<3>::new(a, b, c, b, d, e, c, e, f))
