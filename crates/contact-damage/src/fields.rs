@@ -4,6 +4,9 @@
 //! The scheme evaluates each field once per step over all quadrature points of a chunk of cells
 //! (or over all quadrature points of a boundary part), so that an implementation can amortize
 //! its per-call cost (e.g. a compiled expression run instruction by instruction over a batch).
+//! A field of the bulk data (f0, q) may also ask to be evaluated at several step times per call
+//! ([`BatchVectorField::times_per_evaluation`]), to read its time-independent work per point
+//! once for all of them.
 //! Every closure `Fn(&[f64; D], f64) -> …` is such a field (blanket implementations, one point
 //! at a time), so `Arc::new(|x: &[f64; 2], t: f64| …)` keeps working as a [`VectorField`].
 
@@ -13,6 +16,26 @@ use std::sync::Arc;
 pub trait BatchVectorField<const D: usize>: Send + Sync {
     /// `out[p] = f(points[p], time)` for every p (`out.len() == points.len()`).
     fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [[f64; D]]);
+
+    /// The field at several times, time-major: `out[i · points.len() + p] = f(points[p],
+    /// times[i])` (`out.len() == times.len() · points.len()`), each time bitwise as
+    /// [`BatchVectorField::evaluate`]. The default evaluates one time after the other.
+    fn evaluate_at_times(&self, points: &[[f64; D]], times: &[f64], out: &mut [[f64; D]]) {
+        if !points.is_empty() {
+            for (&time, out) in times.iter().zip(out.chunks_mut(points.len())) {
+                self.evaluate(points, time, out);
+            }
+        }
+    }
+
+    /// How many upcoming step times the scheme should pass to
+    /// [`BatchVectorField::evaluate_at_times`] at once (see [`crate::loads::BulkData`]). The
+    /// default, 1, evaluates the field at each step for that step only; an implementation
+    /// that gains from several times per call (its time-independent work per point done once)
+    /// says how many, and is then evaluated ahead of the steps that use the values.
+    fn times_per_evaluation(&self) -> usize {
+        1
+    }
 }
 
 /// A vector boundary datum of (x, t, outward normal) over a batch of boundary points: f2, f3.
@@ -25,6 +48,21 @@ pub trait BatchBoundaryVectorField<const D: usize>: Send + Sync {
 pub trait BatchScalarField<const D: usize>: Send + Sync {
     /// `out[p] = q(points[p], time)` for every p.
     fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [f64]);
+
+    /// As [`BatchVectorField::evaluate_at_times`]: `out[i · points.len() + p] = q(points[p],
+    /// times[i])`, each time bitwise as [`BatchScalarField::evaluate`].
+    fn evaluate_at_times(&self, points: &[[f64; D]], times: &[f64], out: &mut [f64]) {
+        if !points.is_empty() {
+            for (&time, out) in times.iter().zip(out.chunks_mut(points.len())) {
+                self.evaluate(points, time, out);
+            }
+        }
+    }
+
+    /// As [`BatchVectorField::times_per_evaluation`].
+    fn times_per_evaluation(&self) -> usize {
+        1
+    }
 }
 
 /// A scalar boundary datum of (x, t, outward normal) over a batch: the damage flux κ ∂β/∂ν.

@@ -9,7 +9,9 @@
 //!
 //! Each field is evaluated once per step over all quadrature points of a chunk of cells (rayon
 //! over chunks) or of a boundary part; the element vectors are summed into the global vectors
-//! in cell (and facet) order, so the loads do not depend on the number of threads.
+//! in cell (and facet) order, so the loads do not depend on the number of threads. f0 and q,
+//! when their fields ask for it, are evaluated ahead for a block of step times ([`BulkData`]),
+//! bitwise the same values.
 
 use crate::assembly::{field_strain, physical_gradients, FacetPoints};
 use crate::mesh::BoundaryPart;
@@ -40,6 +42,53 @@ pub struct LoadQuadrature<const D: usize> {
     contact: FacetPoints<D>,
     /// Points on all of Γ (damage flux).
     boundary: FacetPoints<D>,
+}
+
+/// Most bytes of a [`BulkData`] block (f0 and q at every cell quadrature point for several
+/// step times).
+pub const BULK_DATA_BYTES: usize = 64 << 20;
+
+/// The bulk data f0 and q at every cell quadrature point for a block of upcoming step times,
+/// evaluated ahead of the steps ([`LoadQuadrature::bulk_data`]) for fields that gain from
+/// several times per call ([`crate::fields::BatchVectorField::times_per_evaluation`]).
+///
+/// Why: an implementation whose evaluation reads time-independent values per point (the
+/// manufactured data of the verification harness keep them in memory, tens of MB per step
+/// on fine meshes) reads them once for the whole block instead of once per step. The values
+/// of each time are bitwise those of an evaluation at that time alone, and
+/// [`LoadQuadrature::assemble`] sums them in the same order, so the loads do not depend on
+/// the block (a resumed run is bitwise an uninterrupted one).
+#[derive(Debug, Default)]
+pub struct BulkData<const D: usize> {
+    /// The step times of the block, as bits.
+    times: Vec<u64>,
+    /// The quadrature points it was evaluated at (their number: a block of another mesh is
+    /// not used).
+    points: usize,
+    /// Per chunk of cells: f0 then q, time-major (empty for a field the data lack).
+    chunks: Vec<(Vec<[f64; D]>, Vec<f64>)>,
+}
+
+impl<const D: usize> BulkData<D> {
+    /// The index of `time` in the block, if it holds it.
+    fn position(&self, time: f64) -> Option<usize> {
+        self.times.iter().position(|&t| t == time.to_bits())
+    }
+
+    /// The number of times in the block.
+    pub fn len(&self) -> usize {
+        self.times.len()
+    }
+
+    /// True if the block holds no time.
+    pub fn is_empty(&self) -> bool {
+        self.times.is_empty()
+    }
+
+    /// True if the block holds the values at `time` (bit for bit).
+    pub fn holds(&self, time: f64) -> bool {
+        self.position(time).is_some()
+    }
 }
 
 impl<const D: usize> LoadQuadrature<D> {
@@ -84,9 +133,56 @@ impl<const D: usize> LoadQuadrature<D> {
         self.tabulation.len()
     }
 
+    /// How many step times one [`BulkData`] block of `data` should hold: the fewest any
+    /// present bulk field asks for ([`crate::fields::BatchVectorField::times_per_evaluation`]),
+    /// at most what fits in [`BULK_DATA_BYTES`]; 1 (no block) when no bulk field asks for more.
+    pub fn times_per_block(&self, data: &Data<D>) -> usize {
+        let asked = [
+            data.body_force.as_ref().map(|f| f.times_per_evaluation()),
+            data.damage_supply
+                .as_ref()
+                .map(|q| q.times_per_evaluation()),
+        ];
+        let Some(asked) = asked.iter().flatten().min().copied() else {
+            return 1;
+        };
+        let bytes_per_time = (self.points.len() * (D + 1) * std::mem::size_of::<f64>()).max(1);
+        asked.min(BULK_DATA_BYTES / bytes_per_time).max(1)
+    }
+
+    /// f0 and q of `data` at every cell quadrature point at each of `times`, chunk by chunk of
+    /// cells in parallel (on each thread f0, then q, at the same points and times).
+    pub fn bulk_data(&self, data: &Data<D>, times: &[f64]) -> BulkData<D> {
+        let nq = self.tabulation.len();
+        let chunk_points = CHUNK_CELLS * nq;
+        let chunks = self
+            .points
+            .par_chunks(chunk_points)
+            .map(|points| {
+                let mut force = Vec::new();
+                if let Some(f) = &data.body_force {
+                    force = vec![[0.0; D]; points.len() * times.len()];
+                    f.evaluate_at_times(points, times, &mut force);
+                }
+                let mut supply = Vec::new();
+                if let Some(q) = &data.damage_supply {
+                    supply = vec![0.0; points.len() * times.len()];
+                    q.evaluate_at_times(points, times, &mut supply);
+                }
+                (force, supply)
+            })
+            .collect();
+        BulkData {
+            times: times.iter().map(|t| t.to_bits()).collect(),
+            points: self.points.len(),
+            chunks,
+        }
+    }
+
     /// The load vectors of the step at `time` from the state (u_{n−1}, β_{n−1}): the velocity
     /// load (Cartesian, node-major) and the damage source ⟨φ(ε(u_{n−1}), β_{n−1}) + q(t_n),
-    /// φ_a⟩ + ∫_Γ κ∂β/∂ν φ_a.
+    /// φ_a⟩ + ∫_Γ κ∂β/∂ν φ_a. f0 and q are read from `bulk` if it holds `time`, else
+    /// evaluated now (bitwise the same values).
     pub fn assemble(
         &self,
         space: &LagrangeSpace<D>,
@@ -94,7 +190,11 @@ impl<const D: usize> LoadQuadrature<D> {
         data: &Data<D>,
         time: f64,
         state: &State,
+        bulk: Option<&BulkData<D>>,
     ) -> (Vec<f64>, Vec<f64>) {
+        let bulk = bulk
+            .filter(|block| block.points == self.points.len())
+            .and_then(|block| Some((block, block.position(time)?)));
         let tab = &self.tabulation;
         let local = tab.nodes * (D + 1);
         let mut locals = vec![0.0; space.mesh().num_cells() * local];
@@ -102,7 +202,17 @@ impl<const D: usize> LoadQuadrature<D> {
             .par_chunks_mut(CHUNK_CELLS * local)
             .enumerate()
             .for_each(|(chunk, out)| {
-                self.cell_chunk(space, model, data, time, state, chunk * CHUNK_CELLS, out)
+                let bulk = bulk.map(|(block, at)| (&block.chunks[chunk], at));
+                self.cell_chunk(
+                    space,
+                    model,
+                    data,
+                    time,
+                    state,
+                    bulk,
+                    chunk * CHUNK_CELLS,
+                    out,
+                )
             });
         let mut velocity_load = vec![0.0; space.num_nodes() * D];
         let mut damage_source = vec![0.0; space.num_nodes()];
@@ -138,8 +248,9 @@ impl<const D: usize> LoadQuadrature<D> {
 
     /// The element load vectors of the cells `first..` filling `out` (`(D + 1)` values per
     /// local node: the velocity load, then the damage source), one batch of field evaluations
-    /// over all quadrature points of the chunk.
-    #[allow(clippy::too_many_arguments)]
+    /// over all quadrature points of the chunk, or f0 and q read from the chunk's block
+    /// `bulk` = (f0, q of the chunk, index of `time`).
+    #[allow(clippy::too_many_arguments, clippy::type_complexity)]
     fn cell_chunk(
         &self,
         space: &LagrangeSpace<D>,
@@ -147,6 +258,7 @@ impl<const D: usize> LoadQuadrature<D> {
         data: &Data<D>,
         time: f64,
         state: &State,
+        bulk: Option<(&(Vec<[f64; D]>, Vec<f64>), usize)>,
         first: usize,
         out: &mut [f64],
     ) {
@@ -163,16 +275,36 @@ impl<const D: usize> LoadQuadrature<D> {
         let range = first * nq..(first + count) * nq;
         let points = &self.points[range.clone()];
         let weights = &self.weights[range];
-        let mut force = Vec::new();
-        if let Some(f) = &data.body_force {
-            force = vec![[0.0; D]; points.len()];
-            f.evaluate(points, time, &mut force);
-        }
-        let mut supply = Vec::new();
-        if let Some(q) = &data.damage_supply {
-            supply = vec![0.0; points.len()];
-            q.evaluate(points, time, &mut supply);
-        }
+        let (mut own_force, mut own_supply) = (Vec::new(), Vec::new());
+        let (force, supply): (&[[f64; D]], &[f64]) = match bulk {
+            Some(((force, supply), at)) => {
+                let at_time =
+                    |values_per_time: usize| at * values_per_time..(at + 1) * values_per_time;
+                (
+                    if force.is_empty() {
+                        &[]
+                    } else {
+                        &force[at_time(points.len())]
+                    },
+                    if supply.is_empty() {
+                        &[]
+                    } else {
+                        &supply[at_time(points.len())]
+                    },
+                )
+            }
+            None => {
+                if let Some(f) = &data.body_force {
+                    own_force = vec![[0.0; D]; points.len()];
+                    f.evaluate(points, time, &mut own_force);
+                }
+                if let Some(q) = &data.damage_supply {
+                    own_supply = vec![0.0; points.len()];
+                    q.evaluate(points, time, &mut own_supply);
+                }
+                (&own_force, &own_supply)
+            }
+        };
         // ε(u_{n−1}) (once per cell for P1, where it is constant) and β_{n−1} at every point
         // of the chunk, then φ over the batch.
         let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
@@ -383,7 +515,8 @@ mod tests {
                 previous_damage: Vec::new(),
             };
             let (model, data) = (model::<D>(), data::<D>());
-            let loads = LoadQuadrature::new(&space).assemble(&space, &model, &data, 0.0, &state);
+            let loads =
+                LoadQuadrature::new(&space).assemble(&space, &model, &data, 0.0, &state, None);
             let expected = reference(&space, &model, &state);
             for (computed, expected) in [(&loads.0, &expected.0), (&loads.1, &expected.1)] {
                 let scale = expected.iter().fold(0.0_f64, |m, v| m.max(v.abs()));

@@ -9,7 +9,7 @@ use crate::damage::{DamageOperator, DamageSolution};
 use crate::dirichlet::DirichletConstraints;
 pub use crate::dirichlet::PrescribedDisplacement;
 use crate::laws::{ContactLaw, DamageSource, Elasticity, Viscosity};
-use crate::loads::LoadQuadrature;
+use crate::loads::{BulkData, LoadQuadrature};
 use crate::mesh::Mesh;
 use crate::obstacle::{BoxQpSettings, BoxQpStats};
 use crate::space::{FacetRule, LagrangeSpace};
@@ -253,6 +253,9 @@ pub struct Simulation<const D: usize> {
     /// None when the damage is frozen ([`DamageEvolution::Frozen`]).
     damage: Option<DamageOperator<D>>,
     loads: LoadQuadrature<D>,
+    /// f0 and q at the cell quadrature points for the upcoming steps ([`BulkData`]; empty when
+    /// the data ask for one time per evaluation).
+    bulk: BulkData<D>,
     /// The facet quadrature points of each part of Γ1 (for its traction on free components).
     part_facets: Vec<FacetPoints<D>>,
     dirichlet: DirichletConstraints<D>,
@@ -359,6 +362,7 @@ impl<const D: usize> Simulation<D> {
             velocity,
             damage,
             loads,
+            bulk: BulkData::default(),
             part_facets,
             dirichlet,
             state,
@@ -444,9 +448,27 @@ impl<const D: usize> Simulation<D> {
             &self.problem.data,
             time,
             &self.state,
+            Some(&self.bulk),
         );
         self.add_part_tractions(time, &mut velocity_load);
         (velocity_load, damage_source)
+    }
+
+    /// Makes [`Simulation::bulk`] hold f0 and q at t_n: if it does not, evaluates them at
+    /// t_n, t_{n+1}, … (as many step times as [`LoadQuadrature::times_per_block`] allows, up
+    /// to t_N). The times are those [`Simulation::step`] computes, bit for bit.
+    fn prepare_bulk_data(&mut self, n: usize) {
+        let k = self.time_step();
+        let time = n as f64 * k;
+        let per_block = self.loads.times_per_block(&self.problem.data);
+        if per_block <= 1 || self.bulk.holds(time) {
+            return;
+        }
+        let last = (n + per_block - 1).min(self.problem.steps).max(n);
+        let times: Vec<f64> = (n..=last).map(|m| m as f64 * k).collect();
+        // The old block is freed before the new one is allocated.
+        self.bulk = BulkData::default();
+        self.bulk = self.loads.bulk_data(&self.problem.data, &times);
     }
 
     /// The step limit of the explicit terms of (5.1) at the current state ([`crate::stability`]):
@@ -509,6 +531,7 @@ impl<const D: usize> Simulation<D> {
         let n = self.state.step + 1;
         let time = n as f64 * self.time_step();
         let started = std::time::Instant::now();
+        self.prepare_bulk_data(n);
         let (velocity_load, damage_source) = self.step_loads(time);
         self.timings.loads += started.elapsed();
         let k = self.time_step();

@@ -47,6 +47,14 @@ impl<const D: usize> BatchVectorField<D> for Timed<dyn BatchVectorField<D>> {
     fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [[f64; D]]) {
         self.time(|| self.inner.evaluate(points, time, out))
     }
+
+    fn evaluate_at_times(&self, points: &[[f64; D]], times: &[f64], out: &mut [[f64; D]]) {
+        self.time(|| self.inner.evaluate_at_times(points, times, out))
+    }
+
+    fn times_per_evaluation(&self) -> usize {
+        self.inner.times_per_evaluation()
+    }
 }
 
 impl<const D: usize> BatchBoundaryVectorField<D> for Timed<dyn BatchBoundaryVectorField<D>> {
@@ -58,6 +66,14 @@ impl<const D: usize> BatchBoundaryVectorField<D> for Timed<dyn BatchBoundaryVect
 impl<const D: usize> BatchScalarField<D> for Timed<dyn BatchScalarField<D>> {
     fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [f64]) {
         self.time(|| self.inner.evaluate(points, time, out))
+    }
+
+    fn evaluate_at_times(&self, points: &[[f64; D]], times: &[f64], out: &mut [f64]) {
+        self.time(|| self.inner.evaluate_at_times(points, times, out))
+    }
+
+    fn times_per_evaluation(&self) -> usize {
+        self.inner.times_per_evaluation()
     }
 }
 

@@ -209,18 +209,33 @@ impl SplitProgram {
         t: f64,
         mut each: impl FnMut(usize, &BatchOutputs<'_>),
     ) {
+        self.for_batches_at_times(points, &[t], |offset, _, outputs| each(offset, outputs))
+    }
+
+    /// As [`SplitProgram::for_batches`] at several times: for each batch of points in order,
+    /// the outputs at `times[0]`, `times[1]`, … in turn, `each(offset, time_index, outputs)`.
+    /// The outputs at each time are bitwise those of [`SplitProgram::for_batches`] at that
+    /// time; the time-independent values of a batch are read from memory once for all the
+    /// times (they stay in the L1 cache between them).
+    ///
+    /// # Panics
+    /// If the program has fewer than `D + 1` variables, or more than 4.
+    pub fn for_batches_at_times<const D: usize>(
+        &self,
+        points: &[[f64; D]],
+        times: &[f64],
+        mut each: impl FnMut(usize, usize, &BatchOutputs<'_>),
+    ) {
         let variables = self.whole.variables;
         assert!(D < variables && variables <= 4, "SplitProgram: variables");
         let entry = self.cached(points);
         let frontier = self.frontier_len();
         with_registers(|registers: &mut Vec<f64>| {
             let mut inputs = [[0.0; BATCH]; 4];
-            inputs[self.time] = [t; BATCH];
             for (batch, chunk) in points.chunks(BATCH).enumerate() {
                 let count = chunk.len();
                 fill_coordinates(&mut inputs, chunk);
                 let offset = batch * BATCH;
-                let columns: [&[f64]; 4] = std::array::from_fn(|v| &inputs[v][..count]);
                 // Outputs that are variables are read from their columns, not copied.
                 let (program, block) = match &entry {
                     Some(entry) => {
@@ -229,17 +244,28 @@ impl SplitProgram {
                     }
                     None => (&self.whole, &[][..]),
                 };
-                program.eval_batch_columns(&columns[..variables], block, count, registers, false);
-                each(
-                    offset,
-                    &BatchOutputs {
-                        program,
-                        registers,
-                        count,
-                        inputs: &columns[..variables],
+                for (time_index, &t) in times.iter().enumerate() {
+                    inputs[self.time] = [t; BATCH];
+                    let columns: [&[f64]; 4] = std::array::from_fn(|v| &inputs[v][..count]);
+                    program.eval_batch_columns(
+                        &columns[..variables],
                         block,
-                    },
-                );
+                        count,
+                        registers,
+                        false,
+                    );
+                    each(
+                        offset,
+                        time_index,
+                        &BatchOutputs {
+                            program,
+                            registers,
+                            count,
+                            inputs: &columns[..variables],
+                            block,
+                        },
+                    );
+                }
             }
         });
     }
@@ -377,6 +403,37 @@ mod tests {
         }
         assert!(split.cached_bytes() > 0);
         assert_eq!(whole.cached_bytes(), 0);
+    }
+
+    #[test]
+    fn several_times_at_once_are_bitwise_each_time_alone() {
+        let sources = [
+            "sin(pi*x)*cos(pi*y)*(1 + t)",
+            "0.05*x*y*(1+t) + 0.5*t*max(0, x - 0.6)^4*(1+y)",
+            "exp(-t)*x",
+        ];
+        let times = [0.0, 0.125, 0.25, 1.0];
+        // 100 points: three full batches and a partial one; cached and uncached.
+        let points = points(100);
+        for budget in [1 << 20, 0] {
+            let split = SplitProgram::new(program(&sources), 3, budget);
+            let mut at_times = vec![vec![Vec::new(); split.whole().output_count()]; times.len()];
+            let mut seen = Vec::new();
+            split.for_batches_at_times(&points, &times, |offset, at, batch| {
+                seen.push((offset, at));
+                for (k, column) in at_times[at].iter_mut().enumerate() {
+                    column.extend(batch.get(k).iter().map(|v| v.to_bits()));
+                }
+            });
+            // Batch after batch, the times in order within each batch.
+            let expected: Vec<(usize, usize)> = (0..4)
+                .flat_map(|batch| (0..times.len()).map(move |at| (batch * BATCH, at)))
+                .collect();
+            assert_eq!(seen, expected);
+            for (at, &t) in times.iter().enumerate() {
+                assert_eq!(at_times[at], outputs(&split, &points, t), "t = {t}");
+            }
+        }
     }
 
     #[test]

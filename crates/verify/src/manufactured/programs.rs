@@ -208,6 +208,28 @@ impl<const D: usize> QuantityProgram<D> {
             )
         });
     }
+    /// As [`QuantityProgram::for_batches`] at several times: for each batch in order, the
+    /// quantities at `times[0]`, `times[1]`, … in turn, `each(offset, time_index, columns)`
+    /// ([`SplitProgram::for_batches_at_times`]: bitwise the values at each time alone, the
+    /// time-independent values read once for all the times).
+    pub fn for_batches_at_times(
+        &self,
+        points: &[[f64; D]],
+        times: &[f64],
+        mut each: impl FnMut(usize, usize, &Columns<'_, D>),
+    ) {
+        self.program
+            .for_batches_at_times(points, times, |offset, time_index, outputs| {
+                each(
+                    offset,
+                    time_index,
+                    &Columns {
+                        program: self,
+                        outputs,
+                    },
+                )
+            });
+    }
 }
 
 /// The quantities of the body force f0 = −Div σ (chain rule through the laws).

@@ -1,0 +1,84 @@
+//! Cost of the compiled manufactured-data programs per point and time against the number of
+//! step times evaluated at once (`QuantityProgram::for_batches_at_times`), the measurement
+//! behind `TIMES_PER_EVALUATION` (f0 and q) and `STATES_PER_BLOCK` (errors):
+//!
+//! ```text
+//! cargo run --release -p verify --example bench_programs [-- CASE]
+//! ```
+//!
+//! For the bulk program (f0 and q) and the error program of a 2D built-in case (default
+//! `zones2d`), over 16 384 points (their time-independent values stay in the cache) and
+//! 196 608 points (the load points of the 128-cell level, 44 MB of time-independent values
+//! for the bulk program), 128 steps' worth of evaluations on one thread, after a first
+//! evaluation that fills the cache of time-independent values. A benchmark: nothing is
+//! asserted; prints a markdown table.
+
+use std::time::Instant;
+use verify::case::{parse_case_file, Case};
+use verify::cli::BUILT_IN_CASES;
+use verify::manufactured::programs::{Quantity, QuantityProgram};
+
+fn main() {
+    let name = std::env::args().nth(1).unwrap_or_else(|| "zones2d".into());
+    let Some((_, text)) = BUILT_IN_CASES.iter().find(|(case, _)| *case == name) else {
+        eprintln!("no built-in case `{name}`");
+        std::process::exit(2);
+    };
+    let file = parse_case_file(text, &name).expect("the built-in case parses");
+    if file.dim != 2 {
+        eprintln!("`{name}` is not a 2D case");
+        std::process::exit(2);
+    }
+    let case = Case::<2>::new(file, &name).expect("the built-in case is valid");
+    let programs = &case.programs;
+    println!("case {name}, ns per point and time, one thread");
+    println!();
+    println!("| program | points | 1 time | 2 times | 4 times | 8 times | 16 times |");
+    println!("|---|---|---|---|---|---|---|");
+    let steps = 128;
+    for points in [16_384usize, 196_608] {
+        // A fixed low-discrepancy sequence over the unit square.
+        let coordinates: Vec<[f64; 2]> = (0..points)
+            .map(|i| {
+                [
+                    (i as f64 * 0.618_034).fract(),
+                    (i as f64 * 0.377_33).fract(),
+                ]
+            })
+            .collect();
+        for (label, program) in [
+            ("bulk (f0, q)", &programs.bulk),
+            ("errors", &programs.errors),
+        ] {
+            let mut row = format!("| {label} | {points} |");
+            for times in [1usize, 2, 4, 8, 16] {
+                row += &format!(" {:.1} |", per_point(program, &coordinates, steps, times));
+            }
+            println!("{row}");
+        }
+    }
+}
+
+/// Nanoseconds per point and time of `steps · 196 608 / points` evaluations in calls of
+/// `times` times each (a fresh copy of the program: its cache is filled first, untimed).
+fn per_point(program: &QuantityProgram<2>, points: &[[f64; 2]], steps: usize, times: usize) -> f64 {
+    let program = program.clone();
+    let mut checksum = 0.0;
+    program.for_batches(points, 0.0, |_, columns| {
+        checksum += columns.get(Quantity::Damage)[0]
+    });
+    let evaluations = (steps * 196_608 / points.len()).max(times);
+    let calls = evaluations / times;
+    let started = Instant::now();
+    for call in 0..calls {
+        let block: Vec<f64> = (0..times)
+            .map(|i| ((call * times + i) % steps + 1) as f64 / steps as f64)
+            .collect();
+        program.for_batches_at_times(points, &block, |_, _, columns| {
+            checksum += columns.get(Quantity::Damage)[0]
+        });
+    }
+    let nanos = started.elapsed().as_nanos() as f64 / (calls * times * points.len()) as f64;
+    std::hint::black_box(checksum);
+    nanos
+}
