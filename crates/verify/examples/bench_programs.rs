@@ -6,16 +6,20 @@
 //! cargo run --release -p verify --example bench_programs [-- CASE]
 //! ```
 //!
-//! For the bulk program (f0 and q) and the error program of a 2D built-in case (default
+//! For the bulk program (f0 and q), the error program and the fields f0 and q themselves
+//! (the program and the laws point by point) of a 2D built-in case (default
 //! `zones2d`), over 16 384 points (their time-independent values stay in the cache) and
 //! 196 608 points (the load points of the 128-cell level, 44 MB of time-independent values
 //! for the bulk program), 128 steps' worth of evaluations on one thread, after a first
 //! evaluation that fills the cache of time-independent values. A benchmark: nothing is
 //! asserted; prints a markdown table.
 
+use contact_damage::fields::{BatchScalarField, BatchVectorField};
+use std::sync::Arc;
 use std::time::Instant;
 use verify::case::{parse_case_file, Case};
 use verify::cli::BUILT_IN_CASES;
+use verify::manufactured::data::{BodyForce, DamageSupply, ExactPrograms, ManufacturedData};
 use verify::manufactured::programs::{Quantity, QuantityProgram};
 
 fn main() {
@@ -56,7 +60,42 @@ fn main() {
             }
             println!("{row}");
         }
+        // The fields the scheme calls: f0 with q handed over (the laws per point included).
+        let mut row = format!("| f0 and q (fields) | {points} |");
+        for times in [1usize, 2, 4, 8, 16] {
+            row += &format!(
+                " {:.1} |",
+                fields_per_point(&case, &coordinates, steps, times)
+            );
+        }
+        println!("{row}");
     }
+}
+
+/// As [`per_point`] for the fields f0 and q of `case` (f0, then q at the same points and
+/// times, as the load assembly calls them).
+fn fields_per_point(case: &Case<2>, points: &[[f64; 2]], steps: usize, times: usize) -> f64 {
+    let data = ManufacturedData::new(
+        Arc::new(ExactPrograms::clone(&case.programs)),
+        case.laws.clone(),
+    );
+    let (force, supply) = (BodyForce(data.clone()), DamageSupply(data));
+    let mut forces = vec![[0.0; 2]; points.len() * times];
+    let mut sources = vec![0.0; points.len() * times];
+    force.evaluate_at_times(points, &[0.0], &mut forces[..points.len()]);
+    let evaluations = (steps * 196_608 / points.len()).max(times);
+    let calls = evaluations / times;
+    let started = Instant::now();
+    for call in 0..calls {
+        let block: Vec<f64> = (0..times)
+            .map(|i| ((call * times + i) % steps + 1) as f64 / steps as f64)
+            .collect();
+        force.evaluate_at_times(points, &block, &mut forces);
+        supply.evaluate_at_times(points, &block, &mut sources);
+    }
+    let nanos = started.elapsed().as_nanos() as f64 / (calls * times * points.len()) as f64;
+    std::hint::black_box((&forces, &sources));
+    nanos
 }
 
 /// Nanoseconds per point and time of `steps · 196 608 / points` evaluations in calls of
