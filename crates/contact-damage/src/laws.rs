@@ -67,6 +67,19 @@ pub trait Viscosity<const D: usize>: Send + Sync {
         }
         divergence
     }
+    /// [`Viscosity::stress_divergence`] at a batch of points, `out[p]` from `strain_rates[p]`
+    /// and `derivatives[p]` (bitwise the values point by point): one call through a trait
+    /// object per batch, the law's own method inlined in the loop.
+    fn stress_divergence_batch(
+        &self,
+        strain_rates: &[Tensor<D>],
+        derivatives: &[[Tensor<D>; D]],
+        out: &mut [SVector<f64, D>],
+    ) {
+        for ((strain_rate, derivatives), out) in strain_rates.iter().zip(derivatives).zip(out) {
+            *out = self.stress_divergence(strain_rate, derivatives);
+        }
+    }
 }
 
 /// Σ_j (∂_j ε)_ij and tr(∂_i ε) for i < D: the two contractions that the divergence of an
@@ -634,6 +647,26 @@ pub trait Elasticity<const D: usize>: Send + Sync {
                 .column(j);
         }
         divergence
+    }
+    /// [`Elasticity::stress_divergence`] at a batch of points, `out[p]` from `strains[p]`,
+    /// `damages[p]`, `strain_derivatives[p]` and `damage_gradients[p]` (bitwise the values
+    /// point by point): one call through a trait object per batch.
+    fn stress_divergence_batch(
+        &self,
+        strains: &[Tensor<D>],
+        damages: &[f64],
+        strain_derivatives: &[[Tensor<D>; D]],
+        damage_gradients: &[SVector<f64, D>],
+        out: &mut [SVector<f64, D>],
+    ) {
+        for (p, out) in out.iter_mut().enumerate() {
+            *out = self.stress_divergence(
+                &strains[p],
+                damages[p],
+                &strain_derivatives[p],
+                &damage_gradients[p],
+            );
+        }
     }
 }
 
@@ -1552,6 +1585,64 @@ mod tests {
                     &damage_gradient),
             );
             proptest::prop_assert!(close(ours, chain), "moduli: {} vs {}", ours, chain);
+        }
+    }
+
+    proptest::proptest! {
+        /// The batch divergences (one call through the trait object per batch) are bitwise
+        /// the point-by-point ones, for the closed forms and the trait's chain rule.
+        #[test]
+        fn stress_divergence_batches_are_bitwise_the_pointwise_divergences(
+            entries in proptest::collection::vec(-1.0f64..1.0, 39 * 4),
+            damages in proptest::collection::vec(-0.5f64..1.5, 4),
+            count in 0usize..5,
+        ) {
+            let point = |p: usize| {
+                let entries = &entries[39 * p..39 * (p + 1)];
+                let strain = symmetric_from(&entries[..9]);
+                let derivatives: [Tensor<3>; 3] =
+                    std::array::from_fn(|j| symmetric_from(&entries[9 * (j + 1)..9 * (j + 2)]));
+                (strain, derivatives, SVector::<f64, 3>::from_column_slice(&entries[36..39]))
+            };
+            let points: Vec<_> = (0..count).map(point).collect();
+            let strains: Vec<Tensor<3>> = points.iter().map(|p| p.0).collect();
+            let derivatives: Vec<[Tensor<3>; 3]> = points.iter().map(|p| p.1).collect();
+            let gradients: Vec<SVector<f64, 3>> = points.iter().map(|p| p.2).collect();
+            let bits = |values: &[SVector<f64, 3>]| -> Vec<u64> {
+                values.iter().flat_map(|v| v.iter().map(|x| x.to_bits())).collect()
+            };
+            let viscosity = LinearViscosity { shear: 0.7, bulk: -0.2 };
+            let viscosities: [&dyn Viscosity<3>; 2] = [&viscosity, &TraitDefaults(viscosity)];
+            for law in viscosities {
+                let mut batch = vec![SVector::<f64, 3>::zeros(); count];
+                law.stress_divergence_batch(&strains, &derivatives, &mut batch);
+                let pointwise: Vec<SVector<f64, 3>> = (0..count)
+                    .map(|p| law.stress_divergence(&strains[p], &derivatives[p]))
+                    .collect();
+                proptest::prop_assert_eq!(bits(&batch), bits(&pointwise));
+            }
+            let hooke = DamagedHooke { shear_modulus: 1.3, lame_lambda: -0.4 };
+            let moduli = ModuliElasticity {
+                moduli: Arc::new(PowerModuli { shear: 2.0, lambda: -0.5, lambda_shift: 0.1 }),
+            };
+            let elasticities: [&dyn Elasticity<3>; 3] = [&hooke, &moduli, &TraitDefaults(hooke)];
+            for law in elasticities {
+                let mut batch = vec![SVector::<f64, 3>::zeros(); count];
+                law.stress_divergence_batch(
+                    &strains,
+                    &damages[..count],
+                    &derivatives,
+                    &gradients,
+                    &mut batch,
+                );
+                let pointwise: Vec<SVector<f64, 3>> = (0..count)
+                    .map(|p| {
+                        law.stress_divergence(&strains[p], damages[p], &derivatives[p],
+                            &gradients[p])
+                    })
+                    .collect();
+                proptest::prop_assert_eq!(bits(&batch), bits(&pointwise));
+            }
         }
     }
 

@@ -2,9 +2,9 @@
 //! ([`contact_damage::fields`]): the exact fields' derivatives come from the programs compiled
 //! once per case ([`ExactPrograms`]), evaluated over the scheme's batches of quadrature
 //! points; the chain rule through the laws is applied per point (the `*_at` / `*_of_*`
-//! formulas of the parent module): f0 by one call per law and point of its stress divergence
-//! (`stress_divergence`, closed forms for the built-in laws) on strain jets read straight from
-//! the columns, q by one batch call of φ (`DamageSource::source_batch`). f0 and q, which the
+//! formulas of the parent module): f0 by one call per law and batch of its stress divergence
+//! (`stress_divergence_batch`, closed forms for the built-in laws) on the strain jets of the
+//! batch read from the columns, q by one batch call of φ (`DamageSource::source_batch`). f0 and q, which the
 //! solver evaluates at the same points one after the other, come from one program (see
 //! [`ManufacturedData`]).
 
@@ -13,8 +13,8 @@ use super::programs::{
     Columns, Quantity, QuantityProgram, BATCH,
 };
 use super::{
-    body_force_of_strains, contact_traction_at, damage_flux_at, damage_supply_of_source,
-    traction_at, DamageJet, ExactSolution, Laws, PointState, StrainJet,
+    contact_traction_at, damage_flux_at, damage_supply_of_source, traction_at, DamageJet,
+    ExactSolution, Laws, PointState,
 };
 use contact_damage::fields::{
     BatchBoundaryScalarField, BatchBoundaryVectorField, BatchScalarField, BatchVectorField,
@@ -229,28 +229,42 @@ impl<const D: usize> BatchVectorField<D> for BodyForce<D> {
                 let damage = columns.get(Quantity::Damage);
                 let damage_gradient: [&[f64]; D] =
                     std::array::from_fn(|j| columns.get(Quantity::DamageGradient(j)));
-                // Jets filled in place point after point (building them anew per point costs
-                // a copy of D tensors each).
-                let empty = || StrainJet {
-                    strain: Tensor::<D>::zeros(),
-                    derivatives: [Tensor::<D>::zeros(); D],
-                };
-                let (mut rate, mut strain) = (empty(), empty());
+                // The strain jets of the batch, then one call per law for the whole batch
+                // (their per-point closed forms inlined there): the jets are written before
+                // the laws read them, and the trait objects are called once per batch.
+                let mut rate_strains = [Tensor::<D>::zeros(); BATCH];
+                let mut rate_derivatives = [[Tensor::<D>::zeros(); D]; BATCH];
+                let mut strains = [Tensor::<D>::zeros(); BATCH];
+                let mut strain_derivatives = [[Tensor::<D>::zeros(); D]; BATCH];
+                let mut damage_gradients = [SVector::<f64, D>::zeros(); BATCH];
+                for p in 0..count {
+                    rate_strains[p] = symmetric_at(&rate_gradient, p);
+                    strains[p] = symmetric_at(&gradient, p);
+                    for j in 0..D {
+                        rate_derivatives[p][j] = symmetric_at(&rate_second[j], p);
+                        strain_derivatives[p][j] = symmetric_at(&second[j], p);
+                    }
+                    damage_gradients[p] = vector_at(&damage_gradient, p);
+                }
+                let mut viscous = [SVector::<f64, D>::zeros(); BATCH];
+                let mut elastic = [SVector::<f64, D>::zeros(); BATCH];
+                data.laws.viscosity.stress_divergence_batch(
+                    &rate_strains[..count],
+                    &rate_derivatives[..count],
+                    &mut viscous[..count],
+                );
+                data.laws.elasticity.stress_divergence_batch(
+                    &strains[..count],
+                    &damage[..count],
+                    &strain_derivatives[..count],
+                    &damage_gradients[..count],
+                    &mut elastic[..count],
+                );
                 let batch = at * n + offset..at * n + offset + count;
                 for (p, value) in out[batch.clone()].iter_mut().enumerate() {
-                    rate.strain = symmetric_at(&rate_gradient, p);
-                    strain.strain = symmetric_at(&gradient, p);
-                    for j in 0..D {
-                        rate.derivatives[j] = symmetric_at(&rate_second[j], p);
-                        strain.derivatives[j] = symmetric_at(&second[j], p);
-                    }
-                    *value = body_force_of_strains(
-                        &data.laws,
-                        &rate,
-                        &strain,
-                        damage[p],
-                        &vector_at(&damage_gradient, p),
-                    );
+                    // f0 = −Div σ, as `manufactured::body_force_of_strains`.
+                    let divergence = viscous[p] + elastic[p];
+                    *value = std::array::from_fn(|i| -divergence[i]);
                 }
                 supply_batch(&data.laws, columns, &mut supply[batch]);
             });
