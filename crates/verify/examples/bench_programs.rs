@@ -83,17 +83,10 @@ fn fields_per_point(case: &Case<2>, points: &[[f64; 2]], steps: usize, times: us
     let mut forces = vec![[0.0; 2]; points.len() * times];
     let mut sources = vec![0.0; points.len() * times];
     force.evaluate_at_times(points, &[0.0], &mut forces[..points.len()]);
-    let evaluations = (steps * 196_608 / points.len()).max(times);
-    let calls = evaluations / times;
-    let started = Instant::now();
-    for call in 0..calls {
-        let block: Vec<f64> = (0..times)
-            .map(|i| ((call * times + i) % steps + 1) as f64 / steps as f64)
-            .collect();
-        force.evaluate_at_times(points, &block, &mut forces);
-        supply.evaluate_at_times(points, &block, &mut sources);
-    }
-    let nanos = started.elapsed().as_nanos() as f64 / (calls * times * points.len()) as f64;
+    let nanos = nanos_per_point(points.len(), steps, times, |block| {
+        force.evaluate_at_times(points, block, &mut forces);
+        supply.evaluate_at_times(points, block, &mut sources);
+    });
     std::hint::black_box((&forces, &sources));
     nanos
 }
@@ -106,18 +99,32 @@ fn per_point(program: &QuantityProgram<2>, points: &[[f64; 2]], steps: usize, ti
     program.for_batches(points, 0.0, |_, columns| {
         checksum += columns.get(Quantity::Damage)[0]
     });
-    let evaluations = (steps * 196_608 / points.len()).max(times);
+    let nanos = nanos_per_point(points.len(), steps, times, |block| {
+        program.for_batches_at_times(points, block, |_, _, columns| {
+            checksum += columns.get(Quantity::Damage)[0]
+        })
+    });
+    std::hint::black_box(checksum);
+    nanos
+}
+
+/// Times `evaluate(times)` over `steps · 196 608 / points` point evaluations in calls of
+/// `times` step times each (cycling through t = 1/steps, …, 1): nanoseconds per point and
+/// time.
+fn nanos_per_point(
+    points: usize,
+    steps: usize,
+    times: usize,
+    mut evaluate: impl FnMut(&[f64]),
+) -> f64 {
+    let evaluations = (steps * 196_608 / points).max(times);
     let calls = evaluations / times;
     let started = Instant::now();
     for call in 0..calls {
         let block: Vec<f64> = (0..times)
             .map(|i| ((call * times + i) % steps + 1) as f64 / steps as f64)
             .collect();
-        program.for_batches_at_times(points, &block, |_, _, columns| {
-            checksum += columns.get(Quantity::Damage)[0]
-        });
+        evaluate(&block);
     }
-    let nanos = started.elapsed().as_nanos() as f64 / (calls * times * points.len()) as f64;
-    std::hint::black_box(checksum);
-    nanos
+    started.elapsed().as_nanos() as f64 / (calls * times * points) as f64
 }

@@ -444,6 +444,16 @@ mod tests {
         );
     }
 
+    /// The built-in case `name`.
+    fn built_in<const D: usize>(name: &str) -> Case<D> {
+        let text = BUILT_IN_CASES
+            .iter()
+            .find(|(case, _)| *case == name)
+            .unwrap()
+            .1;
+        Case::<D>::new(parse_case_file(text, name).unwrap(), name).unwrap()
+    }
+
     /// q evaluated by itself at `points`, `t` (a fresh data object: nothing handed over).
     fn supply_alone<const D: usize>(case: &Case<D>, points: &[[f64; D]], t: f64) -> Vec<u64> {
         let data = ManufacturedData::new(case.programs.clone(), case.laws.clone());
@@ -455,12 +465,7 @@ mod tests {
     fn supply_hand_over_is_bitwise_and_only_for_the_same_points_and_time<const D: usize>(
         name: &str,
     ) {
-        let text = BUILT_IN_CASES
-            .iter()
-            .find(|(case, _)| *case == name)
-            .unwrap()
-            .1;
-        let case = Case::<D>::new(parse_case_file(text, name).unwrap(), name).unwrap();
+        let case = built_in::<D>(name);
         let data = ManufacturedData::new(case.programs.clone(), case.laws.clone());
         let points: Vec<[f64; D]> = (0..100)
             .map(|p| std::array::from_fn(|i| ((p * (5 + 2 * i) + i) % 41) as f64 / 40.0))
@@ -499,12 +504,7 @@ mod tests {
     /// are bitwise their values at each time alone, and q is handed over for the same times
     /// only.
     fn several_times_at_once_are_bitwise_each_time_alone<const D: usize>(name: &str) {
-        let text = BUILT_IN_CASES
-            .iter()
-            .find(|(case, _)| *case == name)
-            .unwrap()
-            .1;
-        let case = Case::<D>::new(parse_case_file(text, name).unwrap(), name).unwrap();
+        let case = built_in::<D>(name);
         let data = ManufacturedData::new(case.programs.clone(), case.laws.clone());
         assert_eq!(
             BodyForce(data.clone()).times_per_evaluation(),
