@@ -173,19 +173,29 @@ fn coordinate_bits<const D: usize>(points: &[[f64; D]]) -> impl Iterator<Item = 
 /// q at one batch of the columns of [`ExactPrograms::bulk`] or [`ExactPrograms::supply`]:
 /// φ(ε(u), β) by one call of the law, then q = β̇ − κΔβ + η − φ.
 fn supply_batch<const D: usize>(laws: &Laws<D>, columns: &Columns<'_, D>, out: &mut [f64]) {
-    let count = out.len();
     let gradient = matrix_columns(columns, Quantity::Gradient);
+    let mut strains = [Tensor::<D>::zeros(); BATCH];
+    for (p, strain) in strains[..out.len()].iter_mut().enumerate() {
+        *strain = symmetric_at(&gradient, p);
+    }
+    supply_of_strains(laws, columns, &strains[..out.len()], out);
+}
+
+/// [`supply_batch`] with the strains ε(u) of the batch already computed (by f0).
+fn supply_of_strains<const D: usize>(
+    laws: &Laws<D>,
+    columns: &Columns<'_, D>,
+    strains: &[Tensor<D>],
+    out: &mut [f64],
+) {
+    let count = out.len();
     let beta = &columns.get(Quantity::Damage)[..count];
     let rate = columns.get(Quantity::DamageRate);
     let laplacian = columns.get(Quantity::DamageLaplacian);
     let multiplier = columns.get(Quantity::Multiplier);
-    let mut strains = [Tensor::<D>::zeros(); BATCH];
-    for (p, strain) in strains[..count].iter_mut().enumerate() {
-        *strain = symmetric_at(&gradient, p);
-    }
     let mut sources = [0.0; BATCH];
     laws.damage_source
-        .source_batch(&strains[..count], beta, &mut sources[..count]);
+        .source_batch(strains, beta, &mut sources[..count]);
     for (p, value) in out.iter_mut().enumerate() {
         let jet = DamageJet {
             value: beta[p],
@@ -217,6 +227,14 @@ impl<const D: usize> BatchVectorField<D> for BodyForce<D> {
         let data = &self.0;
         let n = points.len();
         let mut supply = vec![0.0; n * times.len()];
+        // The strain jets of a batch and the two divergences, reused from batch to batch.
+        let mut rate_strains = [Tensor::<D>::zeros(); BATCH];
+        let mut rate_derivatives = [[Tensor::<D>::zeros(); D]; BATCH];
+        let mut strains = [Tensor::<D>::zeros(); BATCH];
+        let mut strain_derivatives = [[Tensor::<D>::zeros(); D]; BATCH];
+        let mut damage_gradients = [SVector::<f64, D>::zeros(); BATCH];
+        let mut viscous = [SVector::<f64, D>::zeros(); BATCH];
+        let mut elastic = [SVector::<f64, D>::zeros(); BATCH];
         data.programs
             .bulk
             .for_batches_at_times(points, times, |offset, at, columns| {
@@ -232,11 +250,6 @@ impl<const D: usize> BatchVectorField<D> for BodyForce<D> {
                 // The strain jets of the batch, then one call per law for the whole batch
                 // (their per-point closed forms inlined there): the jets are written before
                 // the laws read them, and the trait objects are called once per batch.
-                let mut rate_strains = [Tensor::<D>::zeros(); BATCH];
-                let mut rate_derivatives = [[Tensor::<D>::zeros(); D]; BATCH];
-                let mut strains = [Tensor::<D>::zeros(); BATCH];
-                let mut strain_derivatives = [[Tensor::<D>::zeros(); D]; BATCH];
-                let mut damage_gradients = [SVector::<f64, D>::zeros(); BATCH];
                 for p in 0..count {
                     rate_strains[p] = symmetric_at(&rate_gradient, p);
                     strains[p] = symmetric_at(&gradient, p);
@@ -246,8 +259,6 @@ impl<const D: usize> BatchVectorField<D> for BodyForce<D> {
                     }
                     damage_gradients[p] = vector_at(&damage_gradient, p);
                 }
-                let mut viscous = [SVector::<f64, D>::zeros(); BATCH];
-                let mut elastic = [SVector::<f64, D>::zeros(); BATCH];
                 data.laws.viscosity.stress_divergence_batch(
                     &rate_strains[..count],
                     &rate_derivatives[..count],
@@ -266,7 +277,7 @@ impl<const D: usize> BatchVectorField<D> for BodyForce<D> {
                     let divergence = viscous[p] + elastic[p];
                     *value = std::array::from_fn(|i| -divergence[i]);
                 }
-                supply_batch(&data.laws, columns, &mut supply[batch]);
+                supply_of_strains(&data.laws, columns, &strains[..count], &mut supply[batch]);
             });
         SUPPLY_HAND_OVER.with_borrow_mut(|hand_over| {
             hand_over.data = Some(data.id);
