@@ -5,7 +5,9 @@
 mod common;
 
 use contact_damage::fields::{BatchScalarField, BatchVectorField};
-use contact_damage::scheme::{Simulation, State};
+use contact_damage::loads::{LoadQuadrature, BULK_DATA_BYTES};
+use contact_damage::scheme::{Data, Simulation, State};
+use contact_damage::space::LagrangeSpace;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 
@@ -63,21 +65,28 @@ fn damage_supply(x: &[f64; 2], t: f64) -> f64 {
 
 const STEPS: usize = 13;
 
-/// A simulation whose f0 and q ask for `times` step times per evaluation; the counter of
-/// evaluations at several times.
-fn simulation(times: usize) -> (Simulation<2>, Arc<AtomicUsize>) {
+/// Data whose f0 and q ask for `force_times` and `supply_times` step times per evaluation;
+/// the counter of evaluations at several times.
+fn data(force_times: usize, supply_times: usize) -> (Data<2>, Arc<AtomicUsize>) {
     let several = Arc::new(AtomicUsize::new(0));
     let mut data = common::quiet_data::<2>();
     data.body_force = Some(Arc::new(Blocked {
         field: body_force,
-        times,
+        times: force_times,
         several: several.clone(),
     }));
     data.damage_supply = Some(Arc::new(Blocked {
         field: damage_supply as fn(&[f64; 2], f64) -> f64,
-        times,
+        times: supply_times,
         several: several.clone(),
     }));
+    (data, several)
+}
+
+/// A simulation whose f0 and q ask for `times` step times per evaluation; the counter of
+/// evaluations at several times.
+fn simulation(times: usize) -> (Simulation<2>, Arc<AtomicUsize>) {
+    let (data, several) = data(times, times);
     let problem = common::problem(common::square(6), 1, data, 0.5, STEPS);
     (Simulation::new(problem).unwrap(), several)
 }
@@ -134,4 +143,24 @@ fn a_run_resumed_with_data_evaluated_ahead_is_bitwise_the_uninterrupted_one() {
     let (mut resumed, _) = simulation(5);
     resumed.set_state(first.state().clone()).unwrap();
     assert_eq!(states(&mut resumed), expected[3..]);
+}
+
+#[test]
+fn a_block_holds_the_fewest_times_asked_for_within_its_memory_budget() {
+    let space = LagrangeSpace::new(Arc::new(common::square(6)), 1).unwrap();
+    let quadrature = LoadQuadrature::new(&space);
+    let with = |force_times: usize, supply_times: usize| {
+        quadrature.times_per_block(&data(force_times, supply_times).0)
+    };
+    // Nothing asked: one time per evaluation, no block.
+    assert_eq!(with(1, 1), 1);
+    // The fewest of the two fields.
+    assert_eq!(with(8, 5), 5);
+    assert_eq!(with(3, 8), 3);
+    // An ask beyond the budget is cut to what fits.
+    let points = space.mesh().num_cells() * quadrature.points_per_cell();
+    let per_time = points * 3 * std::mem::size_of::<f64>();
+    let most = with(usize::MAX, usize::MAX);
+    assert_eq!(most, BULK_DATA_BYTES / per_time);
+    assert!(most > 8 && most * per_time <= BULK_DATA_BYTES);
 }
