@@ -75,16 +75,6 @@ impl<const D: usize> BulkData<D> {
         self.times.iter().position(|&t| t == time.to_bits())
     }
 
-    /// The number of times in the block.
-    pub fn len(&self) -> usize {
-        self.times.len()
-    }
-
-    /// True if the block holds no time.
-    pub fn is_empty(&self) -> bool {
-        self.times.is_empty()
-    }
-
     /// True if the block holds the values at `time` (bit for bit).
     pub fn holds(&self, time: f64) -> bool {
         self.position(time).is_some()
