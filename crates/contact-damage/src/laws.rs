@@ -67,18 +67,50 @@ pub trait Viscosity<const D: usize>: Send + Sync {
         }
         divergence
     }
-    /// [`Viscosity::stress_divergence`] at a batch of points, `out[p]` from `strain_rates[p]`
-    /// and `derivatives[p]` (bitwise the values point by point): one call through a trait
-    /// object per batch, the law's own method inlined in the loop.
-    fn stress_divergence_batch(
-        &self,
-        strain_rates: &[Tensor<D>],
-        derivatives: &[[Tensor<D>; D]],
-        out: &mut [SVector<f64, D>],
-    ) {
-        for ((strain_rate, derivatives), out) in strain_rates.iter().zip(derivatives).zip(out) {
-            *out = self.stress_divergence(strain_rate, derivatives);
+    /// [`Viscosity::stress_divergence`] at a batch of points, from the partial derivatives
+    /// of the velocity field there (columns, see [`FieldJets`]): `out[i][p]` is component i
+    /// at point p, for the first `out[0].len()` points. Bitwise the values point by point;
+    /// one call through a trait object per batch, the law's own method inlined in the loop
+    /// (where the strain rate itself is not needed, as for [`LinearViscosity`], it is not
+    /// built).
+    fn stress_divergence_of_jets(&self, velocity: &FieldJets<'_, D>, out: &mut [&mut [f64]; D]) {
+        for p in 0..out[0].len() {
+            let divergence =
+                self.stress_divergence(&velocity.strain(p), &velocity.strain_derivatives(p));
+            for (i, out) in out.iter_mut().enumerate() {
+                out[p] = divergence[i];
+            }
         }
+    }
+}
+
+/// The first and second partial derivatives of a smooth vector field w at a batch of points,
+/// one slice per derivative (structure of arrays, as a compiled program of the exact fields
+/// writes them): `gradient[i][k][p]` = ∂w_i/∂x_k and `second[j][i][k][p]` = ∂²w_i/∂x_k∂x_j
+/// at point p. The strain ε(w) and its derivatives ∂_j ε(w), which the laws' divergences take,
+/// are their symmetric parts ([`FieldJets::strain`], [`FieldJets::strain_derivatives`]).
+#[derive(Debug, Clone, Copy)]
+pub struct FieldJets<'a, const D: usize> {
+    /// ∂w_i/∂x_k, by i and k.
+    pub gradient: [[&'a [f64]; D]; D],
+    /// ∂²w_i/∂x_k∂x_j, by j, i and k.
+    pub second: [[[&'a [f64]; D]; D]; D],
+}
+
+impl<const D: usize> FieldJets<'_, D> {
+    /// ε(w) = (∇w + ∇wᵀ)/2 at point p.
+    #[inline(always)]
+    pub fn strain(&self, p: usize) -> Tensor<D> {
+        Tensor::<D>::from_fn(|i, k| (self.gradient[i][k][p] + self.gradient[k][i][p]) * 0.5)
+    }
+
+    /// ∂_j ε(w) at point p, for j < D.
+    #[inline(always)]
+    pub fn strain_derivatives(&self, p: usize) -> [Tensor<D>; D] {
+        std::array::from_fn(|j| {
+            let second = &self.second[j];
+            Tensor::<D>::from_fn(|i, k| (second[i][k][p] + second[k][i][p]) * 0.5)
+        })
     }
 }
 
@@ -648,24 +680,28 @@ pub trait Elasticity<const D: usize>: Send + Sync {
         }
         divergence
     }
-    /// [`Elasticity::stress_divergence`] at a batch of points, `out[p]` from `strains[p]`,
-    /// `damages[p]`, `strain_derivatives[p]` and `damage_gradients[p]` (bitwise the values
-    /// point by point): one call through a trait object per batch.
-    fn stress_divergence_batch(
+    /// [`Elasticity::stress_divergence`] at a batch of points, from the partial derivatives
+    /// of the displacement field there (columns, see [`FieldJets`]), β and ∇β
+    /// (`damage_gradient[j][p]` = ∂β/∂x_j): `out[i][p]` is component i at point p, for the
+    /// first `out[0].len()` points. Bitwise the values point by point; one call through a
+    /// trait object per batch.
+    fn stress_divergence_of_jets(
         &self,
-        strains: &[Tensor<D>],
-        damages: &[f64],
-        strain_derivatives: &[[Tensor<D>; D]],
-        damage_gradients: &[SVector<f64, D>],
-        out: &mut [SVector<f64, D>],
+        displacement: &FieldJets<'_, D>,
+        damage: &[f64],
+        damage_gradient: &[&[f64]; D],
+        out: &mut [&mut [f64]; D],
     ) {
-        for (p, out) in out.iter_mut().enumerate() {
-            *out = self.stress_divergence(
-                &strains[p],
-                damages[p],
-                &strain_derivatives[p],
-                &damage_gradients[p],
+        for p in 0..out[0].len() {
+            let divergence = self.stress_divergence(
+                &displacement.strain(p),
+                damage[p],
+                &displacement.strain_derivatives(p),
+                &SVector::<f64, D>::from_fn(|j, _| damage_gradient[j][p]),
             );
+            for (i, out) in out.iter_mut().enumerate() {
+                out[p] = divergence[i];
+            }
         }
     }
 }
@@ -1589,37 +1625,68 @@ mod tests {
     }
 
     proptest::proptest! {
-        /// The batch divergences (one call through the trait object per batch) are bitwise
-        /// the point-by-point ones, for the closed forms and the trait's chain rule.
+        /// The batch divergences from the columns of the fields' derivatives (one call
+        /// through the trait object per batch) are bitwise the point-by-point divergences of
+        /// the strain jets built from the same numbers, for the closed forms and the trait's
+        /// chain rule. Point p holds 39 numbers: ∇w (column-major), ∂_j ∇w for j < 3 (the
+        /// columns `second[j]`), ∇β; the columns need not be symmetric in (j, k).
         #[test]
-        fn stress_divergence_batches_are_bitwise_the_pointwise_divergences(
+        fn stress_divergences_of_jets_are_bitwise_the_pointwise_divergences(
             entries in proptest::collection::vec(-1.0f64..1.0, 39 * 4),
             damages in proptest::collection::vec(-0.5f64..1.5, 4),
             count in 0usize..5,
         ) {
-            let point = |p: usize| {
-                let entries = &entries[39 * p..39 * (p + 1)];
-                let strain = symmetric_from(&entries[..9]);
-                let derivatives: [Tensor<3>; 3] =
-                    std::array::from_fn(|j| symmetric_from(&entries[9 * (j + 1)..9 * (j + 2)]));
-                (strain, derivatives, SVector::<f64, 3>::from_column_slice(&entries[36..39]))
+            let at = |p: usize, offset: usize| entries[39 * p + offset];
+            let column = |offset: usize| -> Vec<f64> { (0..count).map(|p| at(p, offset)).collect() };
+            let gradient: Vec<Vec<Vec<f64>>> =
+                (0..3).map(|i| (0..3).map(|k| column(i + 3 * k)).collect()).collect();
+            let second: Vec<Vec<Vec<Vec<f64>>>> = (0..3)
+                .map(|j| {
+                    (0..3)
+                        .map(|i| (0..3).map(|k| column(9 * (j + 1) + i + 3 * k)).collect())
+                        .collect()
+                })
+                .collect();
+            let damage_gradient: Vec<Vec<f64>> = (0..3).map(|j| column(36 + j)).collect();
+            let jets = FieldJets::<3> {
+                gradient: std::array::from_fn(|i| std::array::from_fn(|k| &gradient[i][k][..])),
+                second: std::array::from_fn(|j| {
+                    std::array::from_fn(|i| std::array::from_fn(|k| &second[j][i][k][..]))
+                }),
             };
-            let points: Vec<_> = (0..count).map(point).collect();
-            let strains: Vec<Tensor<3>> = points.iter().map(|p| p.0).collect();
-            let derivatives: Vec<[Tensor<3>; 3]> = points.iter().map(|p| p.1).collect();
-            let gradients: Vec<SVector<f64, 3>> = points.iter().map(|p| p.2).collect();
-            let bits = |values: &[SVector<f64, 3>]| -> Vec<u64> {
+            let damage_gradient: [&[f64]; 3] = std::array::from_fn(|j| &damage_gradient[j][..]);
+            // The jets of point p built directly from its numbers.
+            let point = |p: usize| {
+                let numbers = &entries[39 * p..39 * (p + 1)];
+                let strain = symmetric_from(&numbers[..9]);
+                let derivatives: [Tensor<3>; 3] =
+                    std::array::from_fn(|j| symmetric_from(&numbers[9 * (j + 1)..9 * (j + 2)]));
+                (strain, derivatives, SVector::<f64, 3>::from_column_slice(&numbers[36..39]))
+            };
+            let bits = |columns: &[Vec<f64>; 3]| -> Vec<u64> {
+                (0..count).flat_map(|p| (0..3).map(move |i| columns[i][p].to_bits())).collect()
+            };
+            let pointwise_bits = |values: Vec<SVector<f64, 3>>| -> Vec<u64> {
                 values.iter().flat_map(|v| v.iter().map(|x| x.to_bits())).collect()
             };
             let viscosity = LinearViscosity { shear: 0.7, bulk: -0.2 };
-            let viscosities: [&dyn Viscosity<3>; 2] = [&viscosity, &TraitDefaults(viscosity)];
+            let saturating = SaturatingViscosity {
+                linear: viscosity,
+                extra_shear: 0.5,
+                rate_scale: 0.3,
+            };
+            let viscosities: [&dyn Viscosity<3>; 3] =
+                [&viscosity, &saturating, &TraitDefaults(viscosity)];
             for law in viscosities {
-                let mut batch = vec![SVector::<f64, 3>::zeros(); count];
-                law.stress_divergence_batch(&strains, &derivatives, &mut batch);
-                let pointwise: Vec<SVector<f64, 3>> = (0..count)
-                    .map(|p| law.stress_divergence(&strains[p], &derivatives[p]))
+                let mut columns: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; count]);
+                law.stress_divergence_of_jets(&jets, &mut columns.each_mut().map(|c| &mut c[..]));
+                let pointwise = (0..count)
+                    .map(|p| {
+                        let (strain, derivatives, _) = point(p);
+                        law.stress_divergence(&strain, &derivatives)
+                    })
                     .collect();
-                proptest::prop_assert_eq!(bits(&batch), bits(&pointwise));
+                proptest::prop_assert_eq!(bits(&columns), pointwise_bits(pointwise));
             }
             let hooke = DamagedHooke { shear_modulus: 1.3, lame_lambda: -0.4 };
             let moduli = ModuliElasticity {
@@ -1627,21 +1694,20 @@ mod tests {
             };
             let elasticities: [&dyn Elasticity<3>; 3] = [&hooke, &moduli, &TraitDefaults(hooke)];
             for law in elasticities {
-                let mut batch = vec![SVector::<f64, 3>::zeros(); count];
-                law.stress_divergence_batch(
-                    &strains,
+                let mut columns: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; count]);
+                law.stress_divergence_of_jets(
+                    &jets,
                     &damages[..count],
-                    &derivatives,
-                    &gradients,
-                    &mut batch,
+                    &damage_gradient,
+                    &mut columns.each_mut().map(|c| &mut c[..]),
                 );
-                let pointwise: Vec<SVector<f64, 3>> = (0..count)
+                let pointwise = (0..count)
                     .map(|p| {
-                        law.stress_divergence(&strains[p], damages[p], &derivatives[p],
-                            &gradients[p])
+                        let (strain, derivatives, gradient) = point(p);
+                        law.stress_divergence(&strain, damages[p], &derivatives, &gradient)
                     })
                     .collect();
-                proptest::prop_assert_eq!(bits(&batch), bits(&pointwise));
+                proptest::prop_assert_eq!(bits(&columns), pointwise_bits(pointwise));
             }
         }
     }

@@ -3,10 +3,10 @@
 //! once per case ([`ExactPrograms`]), evaluated over the scheme's batches of quadrature
 //! points; the chain rule through the laws is applied per point (the `*_at` / `*_of_*`
 //! formulas of the parent module): f0 by one call per law and batch of its stress divergence
-//! (`stress_divergence_batch`, closed forms for the built-in laws) on the strain jets of the
-//! batch read from the columns, q by one batch call of φ (`DamageSource::source_batch`). f0 and q, which the
-//! solver evaluates at the same points one after the other, come from one program (see
-//! [`ManufacturedData`]).
+//! straight from the program's output columns (`stress_divergence_of_jets`, the laws'
+//! closed forms inlined there), q by one batch call of φ (`DamageSource::source_batch`). f0
+//! and q, which the solver evaluates at the same points one after the other, come from one
+//! program (see [`ManufacturedData`]).
 
 use super::programs::{
     boundary_quantities, bulk_quantities, error_quantities, flux_quantities, supply_quantities,
@@ -19,7 +19,7 @@ use super::{
 use contact_damage::fields::{
     BatchBoundaryScalarField, BatchBoundaryVectorField, BatchScalarField, BatchVectorField,
 };
-use contact_damage::laws::Tensor;
+use contact_damage::laws::{FieldJets, Tensor};
 use nalgebra::{SMatrix, SVector};
 use std::cell::RefCell;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -227,55 +227,43 @@ impl<const D: usize> BatchVectorField<D> for BodyForce<D> {
         let data = &self.0;
         let n = points.len();
         let mut supply = vec![0.0; n * times.len()];
-        // The strain jets of a batch and the two divergences, reused from batch to batch.
-        let mut rate_strains = [Tensor::<D>::zeros(); BATCH];
-        let mut rate_derivatives = [[Tensor::<D>::zeros(); D]; BATCH];
+        // The strains of a batch (for q) and the two divergences, by component.
         let mut strains = [Tensor::<D>::zeros(); BATCH];
-        let mut strain_derivatives = [[Tensor::<D>::zeros(); D]; BATCH];
-        let mut damage_gradients = [SVector::<f64, D>::zeros(); BATCH];
-        let mut viscous = [SVector::<f64, D>::zeros(); BATCH];
-        let mut elastic = [SVector::<f64, D>::zeros(); BATCH];
+        let mut viscous = [[0.0; BATCH]; D];
+        let mut elastic = [[0.0; BATCH]; D];
         data.programs
             .bulk
             .for_batches_at_times(points, times, |offset, at, columns| {
-                // Straight from the columns to the strain jets (no point state per point).
                 let count = points[offset..].len().min(BATCH);
-                let gradient = matrix_columns(columns, Quantity::Gradient);
-                let rate_gradient = matrix_columns(columns, Quantity::RateGradient);
-                let second = second_columns(columns, Quantity::Hessian);
-                let rate_second = second_columns(columns, Quantity::RateHessian);
-                let damage = columns.get(Quantity::Damage);
+                let velocity = FieldJets {
+                    gradient: matrix_columns(columns, Quantity::RateGradient),
+                    second: second_columns(columns, Quantity::RateHessian),
+                };
+                let displacement = FieldJets {
+                    gradient: matrix_columns(columns, Quantity::Gradient),
+                    second: second_columns(columns, Quantity::Hessian),
+                };
                 let damage_gradient: [&[f64]; D] =
                     std::array::from_fn(|j| columns.get(Quantity::DamageGradient(j)));
-                // The strain jets of the batch, then one call per law for the whole batch
-                // (their per-point closed forms inlined there): the jets are written before
-                // the laws read them, and the trait objects are called once per batch.
-                for p in 0..count {
-                    rate_strains[p] = symmetric_at(&rate_gradient, p);
-                    strains[p] = symmetric_at(&gradient, p);
-                    for j in 0..D {
-                        rate_derivatives[p][j] = symmetric_at(&rate_second[j], p);
-                        strain_derivatives[p][j] = symmetric_at(&second[j], p);
-                    }
-                    damage_gradients[p] = vector_at(&damage_gradient, p);
-                }
-                data.laws.viscosity.stress_divergence_batch(
-                    &rate_strains[..count],
-                    &rate_derivatives[..count],
-                    &mut viscous[..count],
+                // One call per law for the whole batch, straight from the columns (the
+                // laws' per-point closed forms inlined there).
+                data.laws.viscosity.stress_divergence_of_jets(
+                    &velocity,
+                    &mut viscous.each_mut().map(|column| &mut column[..count]),
                 );
-                data.laws.elasticity.stress_divergence_batch(
-                    &strains[..count],
-                    &damage[..count],
-                    &strain_derivatives[..count],
-                    &damage_gradients[..count],
-                    &mut elastic[..count],
+                data.laws.elasticity.stress_divergence_of_jets(
+                    &displacement,
+                    columns.get(Quantity::Damage),
+                    &damage_gradient,
+                    &mut elastic.each_mut().map(|column| &mut column[..count]),
                 );
                 let batch = at * n + offset..at * n + offset + count;
                 for (p, value) in out[batch.clone()].iter_mut().enumerate() {
                     // f0 = −Div σ, as `manufactured::body_force_of_strains`.
-                    let divergence = viscous[p] + elastic[p];
-                    *value = std::array::from_fn(|i| -divergence[i]);
+                    *value = std::array::from_fn(|i| -(viscous[i][p] + elastic[i][p]));
+                }
+                for (p, strain) in strains[..count].iter_mut().enumerate() {
+                    *strain = displacement.strain(p);
                 }
                 supply_of_strains(&data.laws, columns, &strains[..count], &mut supply[batch]);
             });
