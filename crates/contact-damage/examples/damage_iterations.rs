@@ -12,7 +12,9 @@
 //!
 //! Prints a markdown table: per N, the largest and the total number of outer (active-set /
 //! projected Newton) iterations and of inner (preconditioned CG) iterations over the steps,
-//! the factorizations, the largest KKT residual and the active bounds of the last step.
+//! the factorizations, the truncations of the multigrid hierarchy, the iterations of the coarse
+//! obstacle solves (all levels), the largest KKT residual and the active bounds of the last
+//! step.
 //! Default N = 64, 128, 256, 512.
 
 #[path = "common/moving_damage.rs"]
@@ -55,9 +57,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         steps_per_cell.map_or("16".to_string(), |r| format!("{r}·N"))
     );
     println!(
-        "| N | unknowns | outer it. max / total | inner CG it. max / total | factorizations | coarse updates | fallback steps | max KKT | β = 0 / β = 1 nodes (last step) | time per step |"
+        "| N | unknowns | outer it. max / total | inner CG it. max / total | factorizations | coarse updates | coarse obstacle it. | fallback steps | max KKT | β = 0 / β = 1 nodes (last step) | time per step |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for cells in sizes {
         let started = Instant::now();
         let steps = steps_per_cell.map_or(moving_damage::STEPS, |r| {
@@ -71,11 +73,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let inner_total: usize = stats.iter().map(|s| s.inner_iterations).sum();
         let factorizations: usize = stats.iter().map(|s| s.factorizations).sum();
         let coarse: usize = stats.iter().map(|s| s.coarse_updates).sum();
+        let coarse_solves: usize = stats.iter().map(|s| s.coarse_iterations).sum();
         let fallback = stats.iter().filter(|s| s.used_fallback).count();
         let kkt = stats.iter().map(|s| s.kkt_residual).fold(0.0, f64::max);
         let last = stats.last().expect("steps");
         println!(
-            "| {cells} | {} | {outer_max} / {outer_total} | {inner_max} / {inner_total} | {factorizations} | {coarse} | {fallback} | {kkt:.1e} | {} / {} | {:.3} s |",
+            "| {cells} | {} | {outer_max} / {outer_total} | {inner_max} / {inner_total} | {factorizations} | {coarse} | {coarse_solves} | {fallback} | {kkt:.1e} | {} / {} | {:.3} s |",
             (cells + 1) * (cells + 1),
             last.lower_active,
             last.upper_active,

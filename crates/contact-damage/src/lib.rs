@@ -57,6 +57,7 @@
 
 pub mod assembly;
 pub mod atomic;
+mod coarse_obstacle;
 pub mod contact;
 pub mod damage;
 pub mod dirichlet;

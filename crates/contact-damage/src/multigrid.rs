@@ -72,7 +72,7 @@ const STALLED_COARSENING: f64 = 0.8;
 /// Most levels built.
 const MAX_LEVELS: usize = 25;
 /// Marker of an unaggregated node.
-const UNASSIGNED: usize = usize::MAX;
+pub(crate) const UNASSIGNED: usize = usize::MAX;
 
 /// Compressed sparse rows (for a symmetric matrix: also its compressed columns).
 #[derive(Debug, Clone)]
@@ -105,11 +105,11 @@ impl Csr {
         }
     }
 
-    fn rows(&self) -> usize {
+    pub(crate) fn rows(&self) -> usize {
         self.offsets.len() - 1
     }
 
-    fn row(&self, i: usize) -> (&[usize], &[f64]) {
+    pub(crate) fn row(&self, i: usize) -> (&[usize], &[f64]) {
         let range = self.offsets[i]..self.offsets[i + 1];
         (&self.indices[range.clone()], &self.values[range])
     }
@@ -206,7 +206,7 @@ impl Csr {
     }
 
     /// Diagonal entries (zero where the pattern has none).
-    fn diagonal(&self) -> Vec<f64> {
+    pub(crate) fn diagonal(&self) -> Vec<f64> {
         (0..self.rows()).map(|i| self.diagonal_entry(i)).collect()
     }
 
@@ -272,6 +272,9 @@ pub(crate) struct Hierarchy {
     coarsest_size: usize,
     /// Dense factor of the coarsest matrix, if it has at most `coarsest_size` unknowns.
     coarsest_factor: Option<DenseFactor>,
+    /// The largest diagonal entry of the untruncated coarsest matrix: the scale of the
+    /// rounding errors of its Galerkin sums, truncated or not.
+    coarsest_scale: f64,
     /// Scratch of the sparse products: position of a column in the current row.
     marker: Vec<usize>,
 }
@@ -340,8 +343,16 @@ impl Hierarchy {
             fixed: vec![false; matrix.rows()],
             levels,
             coarsest_factor: None,
+            coarsest_scale: 0.0,
             marker,
         };
+        hierarchy.coarsest_scale = hierarchy
+            .levels
+            .last()
+            .expect("at least one level")
+            .diagonal
+            .iter()
+            .fold(0.0_f64, |acc, d| acc.max(d.abs()));
         hierarchy.factor_coarsest();
         hierarchy
     }
@@ -440,7 +451,7 @@ impl Hierarchy {
     fn factor_coarsest(&mut self) {
         let level = self.levels.last().expect("at least one level");
         self.coarsest_factor = (level.matrix.rows() <= self.coarsest_size)
-            .then(|| DenseFactor::new(&level.matrix, &level.diagonal));
+            .then(|| DenseFactor::new(&level.matrix, &level.diagonal, self.coarsest_scale));
     }
 
     /// Whether the coarsest dense factor met a clearly negative pivot: the matrix is not
@@ -464,7 +475,7 @@ impl Hierarchy {
         if l == last {
             let level = &mut self.levels[l];
             match &self.coarsest_factor {
-                Some(factor) => factor.solve(&level.rhs, &mut level.solution),
+                Some(factor) => factor.solve(&level.rhs, &mut level.solution, &mut level.residual),
                 None => {
                     level.solution.fill(0.0);
                     for _ in 0..COARSEST_SWEEPS {
@@ -521,93 +532,123 @@ impl Hierarchy {
     }
 }
 
-/// Dense Cholesky factor `L Lᵀ` of a symmetric positive semidefinite matrix: a pivot that
-/// vanishes up to rounding (at most [`PIVOT_DROP`] times the largest diagonal entry; in
-/// particular the rows of unknowns truncated away) is dropped, and its unknown is set to zero
-/// by the solve.
+/// Dense Cholesky factor `Πᵀ A Π = L Lᵀ` of a symmetric positive semidefinite matrix with
+/// diagonal pivoting (at each step the largest remaining diagonal entry of the Schur
+/// complement is the pivot), which reveals the rank: the factorization stops when every
+/// remaining pivot vanishes up to rounding (at most [`PIVOT_DROP`] times the scale; in
+/// particular the rows of unknowns truncated away), and the solve sets those unknowns to zero.
+/// Without pivoting, a pivot that vanishes in exact arithmetic but not in floating point
+/// (a coarse unknown almost all of whose fine support is truncated) was kept and its
+/// rounding amplified into large negative pivots later on, i.e. a positive semidefinite
+/// matrix reported indefinite.
 #[derive(Debug, Clone)]
 struct DenseFactor {
     size: usize,
-    /// Row-major lower triangle of `L` (dropped columns zero).
+    /// The pivots in order: `order[k]` is the unknown eliminated at step k.
+    order: Vec<usize>,
+    /// Number of pivots kept (the numerical rank).
+    rank: usize,
+    /// Row-major `L` in the pivoted order, its first `rank` columns.
     lower: Vec<f64>,
-    dropped: Vec<bool>,
-    /// A pivot below `−INDEFINITE_PIVOT · max_j a_jj` was met.
+    /// A remaining pivot below `−INDEFINITE_PIVOT · scale` was met.
     indefinite: bool,
 }
 
 impl DenseFactor {
+    /// The factor of the matrix with rows `matrix` and diagonal `diagonal`; `scale` is the
+    /// size of its entries before any truncation, against which rounding is measured.
     #[allow(clippy::needless_range_loop)] // dense triangular kernels
-    fn new(matrix: &Csr, diagonal: &[f64]) -> Self {
+    fn new(matrix: &Csr, diagonal: &[f64], scale: f64) -> Self {
         let n = matrix.rows();
-        let mut lower = vec![0.0; n * n];
+        // The full symmetric matrix, permuted in place as the pivots are chosen.
+        let mut work = vec![0.0; n * n];
         for i in 0..n {
             let (columns, values) = matrix.row(i);
             for (&j, &value) in columns.iter().zip(values) {
-                if j <= i {
-                    lower[i * n + j] = value;
-                }
+                work[i * n + j] = value;
             }
         }
-        let mut dropped = vec![false; n];
-        let mut indefinite = false;
         // Rounding in the Galerkin sums (which cancel: mass and stiffness couplings have
-        // opposite signs) is relative to the largest entries, not to a row's own diagonal.
-        let scale = diagonal.iter().fold(0.0_f64, |acc, d| acc.max(d.abs()));
-        for j in 0..n {
-            let mut pivot = lower[j * n + j];
-            for k in 0..j {
-                pivot -= lower[j * n + k] * lower[j * n + k];
+        // opposite signs) is relative to the largest entries of the untruncated matrix
+        // (`scale`), not to a row's own diagonal nor to the truncated matrix, whose entries
+        // may all be of the size of that rounding when most indices are fixed.
+        let scale = diagonal.iter().fold(scale, |acc, d| acc.max(d.abs()));
+        let mut order: Vec<usize> = (0..n).collect();
+        let mut rank = n;
+        for k in 0..n {
+            let (pivot_row, pivot) = (k..n).map(|i| (i, work[i * n + i])).fold(
+                (k, f64::NEG_INFINITY),
+                |best, candidate| {
+                    if candidate.1 > best.1 {
+                        candidate
+                    } else {
+                        best
+                    }
+                },
+            );
+            if pivot.is_nan() || pivot <= PIVOT_DROP * scale {
+                rank = k;
+                break;
             }
-            indefinite |= pivot < -INDEFINITE_PIVOT * scale;
-            if !(diagonal[j] > 0.0 && pivot > PIVOT_DROP * scale) {
-                dropped[j] = true;
-                for i in j..n {
-                    lower[i * n + j] = 0.0;
+            if pivot_row != k {
+                order.swap(k, pivot_row);
+                for column in 0..n {
+                    work.swap(k * n + column, pivot_row * n + column);
                 }
-                continue;
+                for row in 0..n {
+                    work.swap(row * n + k, row * n + pivot_row);
+                }
             }
-            let pivot = pivot.sqrt();
-            lower[j * n + j] = pivot;
-            for i in j + 1..n {
-                let mut value = lower[i * n + j];
-                for k in 0..j {
-                    value -= lower[i * n + k] * lower[j * n + k];
+            let root = pivot.sqrt();
+            work[k * n + k] = root;
+            for i in k + 1..n {
+                work[i * n + k] /= root;
+            }
+            // The Schur complement of the remaining rows (lower triangle and diagonal; the
+            // upper triangle mirrors it for the pivot search and swaps).
+            for i in k + 1..n {
+                let factor = work[i * n + k];
+                for j in k + 1..=i {
+                    work[i * n + j] -= factor * work[j * n + k];
                 }
-                lower[i * n + j] = value / pivot;
+                for j in k + 1..i {
+                    work[j * n + i] = work[i * n + j];
+                }
             }
         }
+        let indefinite = (rank..n).any(|i| work[i * n + i] < -INDEFINITE_PIVOT * scale);
         Self {
             size: n,
-            lower,
-            dropped,
+            order,
+            rank,
+            lower: work,
             indefinite,
         }
     }
 
-    /// `x = L⁻ᵀ L⁻¹ b` on the kept unknowns, zero on the dropped ones.
+    /// `x = Π L⁻ᵀ L⁻¹ Πᵀ b` on the kept unknowns, zero on the dropped ones; `scratch` holds
+    /// at least as many values as there are unknowns.
     #[allow(clippy::needless_range_loop)] // dense triangular kernels
-    fn solve(&self, rhs: &[f64], x: &mut [f64]) {
-        let n = self.size;
-        for i in 0..n {
-            if self.dropped[i] {
-                x[i] = 0.0;
-                continue;
+    fn solve(&self, rhs: &[f64], x: &mut [f64], scratch: &mut [f64]) {
+        let (n, rank) = (self.size, self.rank);
+        let y = &mut scratch[..rank];
+        for k in 0..rank {
+            let mut value = rhs[self.order[k]];
+            for m in 0..k {
+                value -= self.lower[k * n + m] * y[m];
             }
-            let mut value = rhs[i];
-            for k in 0..i {
-                value -= self.lower[i * n + k] * x[k];
-            }
-            x[i] = value / self.lower[i * n + i];
+            y[k] = value / self.lower[k * n + k];
         }
-        for i in (0..n).rev() {
-            if self.dropped[i] {
-                continue;
+        for k in (0..rank).rev() {
+            let mut value = y[k];
+            for m in k + 1..rank {
+                value -= self.lower[m * n + k] * y[m];
             }
-            let mut value = x[i];
-            for k in i + 1..n {
-                value -= self.lower[k * n + i] * x[k];
-            }
-            x[i] = value / self.lower[i * n + i];
+            y[k] = value / self.lower[k * n + k];
+        }
+        x.fill(0.0);
+        for k in 0..rank {
+            x[self.order[k]] = y[k];
         }
     }
 }
@@ -640,7 +681,7 @@ pub(crate) fn inverse(d: f64) -> f64 {
 
 /// Greedy aggregation on the strong connections; returns the aggregate of every node
 /// ([`UNASSIGNED`] for the nodes without strong neighbours) and the number of aggregates.
-fn aggregate(matrix: &Csr, diagonal: &[f64]) -> (Vec<usize>, usize) {
+pub(crate) fn aggregate(matrix: &Csr, diagonal: &[f64]) -> (Vec<usize>, usize) {
     let n = matrix.rows();
     let strong = |i: usize, j: usize, a: f64| {
         i != j && a.abs() >= STRENGTH * (diagonal[i] * diagonal[j]).abs().sqrt()
@@ -819,12 +860,12 @@ fn product_rows(left: &Csr, right: &Csr, product: &mut Csr, marker: &mut [usize]
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use faer::sparse::Triplet;
 
     /// 5-point Laplacian plus a small mass shift on an m×m grid.
-    fn laplacian(m: usize, shift: f64) -> SparseColMat<usize, f64> {
+    pub(crate) fn laplacian(m: usize, shift: f64) -> SparseColMat<usize, f64> {
         let index = |i: usize, j: usize| i * m + j;
         let mut triplets = Vec::new();
         for i in 0..m {
@@ -997,5 +1038,83 @@ mod tests {
             .zip(&level.rhs)
             .fold(0.0_f64, |w, (a, b)| w.max((a - b).abs()));
         assert!(worst < 1e-10, "Gauss–Seidel residual {worst}");
+    }
+
+    /// A dense symmetric matrix as rows.
+    fn dense_rows(dense: &[Vec<f64>]) -> Csr {
+        let n = dense.len();
+        let mut triplets = Vec::new();
+        for (i, row) in dense.iter().enumerate() {
+            for (j, &value) in row.iter().enumerate() {
+                if value != 0.0 {
+                    triplets.push(Triplet::new(i, j, value));
+                }
+            }
+        }
+        Csr::from_symmetric(&SparseColMat::try_new_from_triplets(n, n, &triplets).unwrap())
+    }
+
+    /// `max_i |(A x − b)_i|` over the rows `kept`.
+    fn residual_on(dense: &[Vec<f64>], x: &[f64], rhs: &[f64]) -> f64 {
+        dense
+            .iter()
+            .zip(rhs)
+            .map(|(row, b)| (row.iter().zip(x).map(|(a, x)| a * x).sum::<f64>() - b).abs())
+            .fold(0.0, f64::max)
+    }
+
+    /// The truncated coarsest matrix (38 unknowns, 6 of them truncated away) that the
+    /// Cholesky factor without pivoting reported indefinite (a pivot of −1.3e-5 times the
+    /// largest diagonal entry) although its eigenvalues are ≥ −2e-20 (positive semidefinite
+    /// up to rounding): met in a coarse obstacle problem whose aggregates touch both bounds.
+    /// With diagonal pivoting it is factorized, and a consistent system is solved to
+    /// rounding; a genuinely indefinite matrix is still reported.
+    #[test]
+    fn pivoted_dense_factor_solves_a_semidefinite_coarsest_matrix_and_detects_indefinite_ones() {
+        let dense: Vec<Vec<f64>> = include_str!("../tests/data/truncated_coarsest_38.txt")
+            .lines()
+            .filter(|line| !line.trim().is_empty())
+            .map(|line| {
+                line.split_whitespace()
+                    .map(|v| v.parse().unwrap())
+                    .collect()
+            })
+            .collect();
+        let n = dense.len();
+        assert_eq!(n, 38);
+        let rows = dense_rows(&dense);
+        let diagonal = rows.diagonal();
+        let scale = diagonal.iter().fold(0.0_f64, |acc, d| acc.max(*d));
+        let factor = DenseFactor::new(&rows, &diagonal, scale);
+        assert!(!factor.indefinite);
+        assert!(factor.rank < n, "rank {}", factor.rank);
+        // A right-hand side in the range: b = A y.
+        let y: Vec<f64> = (0..n).map(|i| ((i * 7 % 11) as f64 - 5.0) / 5.0).collect();
+        let rhs: Vec<f64> = dense
+            .iter()
+            .map(|row| row.iter().zip(&y).map(|(a, y)| a * y).sum())
+            .collect();
+        let mut x = vec![0.0; n];
+        factor.solve(&rhs, &mut x, &mut vec![0.0; n]);
+        let size = rhs.iter().fold(0.0_f64, |acc, b| acc.max(b.abs()));
+        assert!(
+            residual_on(&dense, &x, &rhs) <= 1e-8 * size,
+            "residual {} against {size}",
+            residual_on(&dense, &x, &rhs)
+        );
+        // The truncated unknowns (zero rows) are dropped and set to zero.
+        for i in 0..n {
+            if diagonal[i] == 0.0 {
+                assert_eq!(x[i], 0.0);
+            }
+        }
+        let indefinite = vec![
+            vec![2.0, 0.0, 1.0],
+            vec![0.0, -1.0, 0.0],
+            vec![1.0, 0.0, 3.0],
+        ];
+        let rows = dense_rows(&indefinite);
+        let diagonal = rows.diagonal();
+        assert!(DenseFactor::new(&rows, &diagonal, 3.0).indefinite);
     }
 }

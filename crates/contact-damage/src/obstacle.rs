@@ -31,7 +31,12 @@
 //! hierarchy of `A` built once per matrix (smoothed aggregation, Vaněk, Mandel & Brezina
 //! 1996: greedy aggregates of strongly coupled unknowns, a Jacobi-smoothed piecewise constant
 //! prolongation, Galerkin coarse matrices, a dense factor on the coarsest level of at most
-//! 64 unknowns; no factorization of `A`). One iteration:
+//! 64 unknowns, factorized with diagonal pivoting; no factorization of `A`). One iteration:
+//! 0. **Coarse obstacle correction** (first iteration only, and only for large
+//!    diffusion-dominated matrices; `src/coarse_obstacle.rs`): the correction constant on
+//!    the aggregates of the coarsening that minimizes `q` within conservative bounds, by the
+//!    same method on `P̂ᵀAP̂`, recursively. It frees in one step a layer of indices that the
+//!    smoother would free a few cells per iteration.
 //! 1. **Nonlinear smoothing**: a symmetric projected Gauss–Seidel sweep, every `x_i` in turn
 //!    replaced by the exact minimizer of `q` in its interval, `clamp(x_i − g_i/a_ii)`.
 //! 2. **Truncation**: the indices lying on a bound after the smoothing keep their value; the
@@ -55,9 +60,10 @@
 //! factorization at all, so nothing is refactorized when the active set changes), and the
 //! consistent mass matrix (positive off-diagonal entries) is no obstacle for projected
 //! Gauss–Seidel. Iteration counts on the moving-damage case are in the README: once the
-//! active set is found, about four iterations to 1e-12 at every N; the steps that move the
-//! free boundary by more cells (finer meshes at a fixed time step) need about one more
-//! iteration per doubling of N, as the free boundary moves two cells further per step.
+//! active set is found, about four iterations to 1e-12 at every N; at a fixed time step the
+//! free boundary moves by more cells on finer meshes, and without the coarse obstacle
+//! correction the counts grew by about one iteration per doubling of N (5.0, 5.1, 6.4 and
+//! 8.1 per step at N = 64, 128, 256, 512; with it 5.0, 5.1, 5.4 and 6.4).
 //! Measured per step against the active set method in `reports/benchmark_step.md`.
 //!
 //! # Alternative algorithm: primal–dual active set
@@ -160,6 +166,7 @@ use std::hash::{DefaultHasher, Hash, Hasher};
 use faer::sparse::{SparseColMat, Triplet};
 use faer::MatMut;
 
+use crate::coarse_obstacle::CoarseObstacle;
 use crate::error::{Error, History, Result};
 pub use crate::linalg::FactorKind;
 use crate::linalg::{multiply_into, CholeskySolver};
@@ -224,6 +231,10 @@ pub struct BoxQpStats {
     /// Truncations of the multigrid hierarchy (recomputed coarse matrices) in this call: one
     /// per change of the set of indices on a bound ([`BoxQpMethod::MonotoneMultigrid`]).
     pub coarse_updates: usize,
+    /// Iterations of the coarse obstacle solves in this call, all levels together
+    /// ([`BoxQpMethod::MonotoneMultigrid`] on at least 2000 unknowns; each costs about a
+    /// ninth of a fine iteration in 2D per level down).
+    pub coarse_iterations: usize,
     /// Scaled KKT residual of the returned `x` (see [`box_qp_kkt_residual`]).
     pub kkt_residual: f64,
     /// Number of indices with `x_i = lower_i` (including fixed indices with `lower_i = upper_i`).
@@ -276,6 +287,9 @@ pub struct BoxQpSolver {
     /// `A` by rows and its truncated multigrid hierarchy ([`BoxQpMethod::MonotoneMultigrid`],
     /// built at construction).
     multigrid: Option<(FineRows, Hierarchy)>,
+    /// The coarse obstacle correction on aggregates ([`BoxQpMethod::MonotoneMultigrid`], at
+    /// least `coarse_obstacle::MIN_NESTED_SIZE` unknowns, diffusion dominated).
+    coarse: Option<CoarseObstacle>,
     /// Work vectors kept between calls (allocated by the first).
     workspace: Option<Workspace>,
 }
@@ -428,8 +442,10 @@ impl BoxQpSolver {
             )?),
             BoxQpMethod::MonotoneMultigrid => None,
         };
+        let mut coarse = None;
         let multigrid = (settings.method == BoxQpMethod::MonotoneMultigrid).then(|| {
             let rows = Csr::from_symmetric(&matrix);
+            coarse = Some(CoarseObstacle::new(&rows, &diagonal, settings));
             let hierarchy = Hierarchy::new(&rows);
             let fine = FineRows {
                 lower_counts: rows.lower_counts(),
@@ -438,12 +454,14 @@ impl BoxQpSolver {
             };
             (fine, hierarchy)
         });
+        let coarse = coarse.transpose()?.flatten();
         Ok(Self {
             matrix,
             settings,
             diagonal,
             factor,
             multigrid,
+            coarse,
             workspace: None,
         })
     }
@@ -616,6 +634,13 @@ impl BoxQpSolver {
         let rows = &fine.rows;
         while stats.iterations < self.settings.max_iterations {
             stats.iterations += 1;
+            // 0. The coarse obstacle correction, before the first smoothing
+            // (`crate::coarse_obstacle`).
+            if let Some(coarse) = self.coarse.as_mut().filter(|_| stats.iterations == 1) {
+                stats.coarse_iterations +=
+                    coarse.correct(x, &work.gradient, problem.lower, problem.upper)?;
+                residual_gradient(rows, x, problem.rhs, &mut work.gradient);
+            }
             // 1. Nonlinear smoothing: a symmetric projected Gauss–Seidel sweep.
             projected_gauss_seidel(fine, problem, x, false);
             projected_gauss_seidel(fine, problem, x, true);
