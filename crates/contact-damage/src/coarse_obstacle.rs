@@ -8,9 +8,9 @@
 //! the finer the mesh at a fixed time step), each iteration frees only the indices next to the
 //! free set, and the number of iterations grows with the width of the band in cells.
 //!
-//! A coarse correction minimizes the energy over the corrections that are constant on the
-//! aggregates of the multigrid coarsening (the tentative prolongation `P̂`, with one 1 per
-//! aggregated row): for a feasible `x` with gradient `g = Ax − b`,
+//! Before each smoothing, a coarse correction minimizes the energy over the corrections that
+//! are constant on the aggregates of the multigrid coarsening (the tentative prolongation
+//! `P̂`, with one 1 per aggregated row): for a feasible `x` with gradient `g = Ax − b`,
 //!
 //! ```text
 //!     minimize  ½ dᵀ (P̂ᵀAP̂) d + (P̂ᵀg)ᵀ d   subject to  max_{i∈J}(lower_i − x_i) ≤ d_J ≤ min_{i∈J}(upper_i − x_i),
@@ -18,13 +18,20 @@
 //!
 //! so that `x + P̂d` stays feasible (the conservative bounds of monotone multigrid, Kornhuber
 //! 1994) and `q(x + P̂d) ≤ q(x)` (d = 0 is feasible). This is a box QP of the same kind with
-//! about a ninth of the unknowns in 2D; it is solved by the same method, which applies its
-//! own coarse correction first, down to [`MIN_NESTED_SIZE`] unknowns. Unlike a single
-//! projected sweep on the coarse levels, the coarse *minimizer* may lower a whole band of
-//! indices whose gradients point out of the box: the coarse problem sees the band a third as
-//! wide in its own unknowns. The coarse solves stop at a loose tolerance
-//! ([`COARSE_TOLERANCE`]): they only move the start of the fine iteration, which certifies
-//! the result by its own KKT residual, and any feasible coarse iterate decreases the energy.
+//! about a sixth of the unknowns in 2D; it is solved by the same method, which applies its
+//! own coarse correction first, down to [`MIN_NESTED_SIZE`] unknowns or a matrix no longer
+//! diffusion dominated ([`MIN_DIFFUSION_DOMINANCE`]). Unlike a single projected sweep on the
+//! coarse levels, the coarse *minimizer* may lower a whole band of indices whose gradients
+//! point out of the box: the coarse problem sees the band narrower in its own unknowns. The
+//! coarse solves stop at a loose tolerance ([`COARSE_TOLERANCE`]): they only move the iterate
+//! of the fine iteration, which certifies the result by its own KKT residual, and any
+//! feasible coarse iterate lowers the energy, so the fine iteration stays monotone and
+//! globally convergent.
+//!
+//! Measured on the moving-damage case (`examples/damage_iterations.rs`, k = 1/64): at most
+//! 6, 6, 7 and 9 fine iterations per step at N = 64, 128, 256, 512 without the correction,
+//! at most 6 at every N with it (it is used from N = 256 on; 5.2 and 6.0 iterations per step
+//! on average against 6.4 and 8.1).
 
 use faer::sparse::{SparseColMat, Triplet};
 

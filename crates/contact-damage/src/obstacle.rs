@@ -32,8 +32,8 @@
 //! 1996: greedy aggregates of strongly coupled unknowns, a Jacobi-smoothed piecewise constant
 //! prolongation, Galerkin coarse matrices, a dense factor on the coarsest level of at most
 //! 64 unknowns, factorized with diagonal pivoting; no factorization of `A`). One iteration:
-//! 0. **Coarse obstacle correction** (first iteration only, and only for large
-//!    diffusion-dominated matrices; `src/coarse_obstacle.rs`): the correction constant on
+//! 0. **Coarse obstacle correction** (only for large diffusion-dominated matrices;
+//!    `src/coarse_obstacle.rs`): the correction constant on
 //!    the aggregates of the coarsening that minimizes `q` within conservative bounds, by the
 //!    same method on `P̂ᵀAP̂`, recursively. It frees in one step a layer of indices that the
 //!    smoother would free a few cells per iteration.
@@ -62,8 +62,9 @@
 //! Gauss–Seidel. Iteration counts on the moving-damage case are in the README: once the
 //! active set is found, about four iterations to 1e-12 at every N; at a fixed time step the
 //! free boundary moves by more cells on finer meshes, and without the coarse obstacle
-//! correction the counts grew by about one iteration per doubling of N (5.0, 5.1, 6.4 and
-//! 8.1 per step at N = 64, 128, 256, 512; with it 5.0, 5.1, 5.4 and 6.4).
+//! correction the counts grew by about one iteration per doubling of N (at most 6, 6, 7, 9
+//! per step, 5.0, 5.1, 6.4 and 8.1 on average, at N = 64, 128, 256, 512; with it at most 6
+//! at every N, 5.0, 5.1, 5.2 and 6.0 on average).
 //! Measured per step against the active set method in `reports/benchmark_step.md`.
 //!
 //! # Alternative algorithm: primal–dual active set
@@ -634,9 +635,8 @@ impl BoxQpSolver {
         let rows = &fine.rows;
         while stats.iterations < self.settings.max_iterations {
             stats.iterations += 1;
-            // 0. The coarse obstacle correction, before the first smoothing
-            // (`crate::coarse_obstacle`).
-            if let Some(coarse) = self.coarse.as_mut().filter(|_| stats.iterations == 1) {
+            // 0. The coarse obstacle correction (`crate::coarse_obstacle`).
+            if let Some(coarse) = self.coarse.as_mut() {
                 stats.coarse_iterations +=
                     coarse.correct(x, &work.gradient, problem.lower, problem.upper)?;
                 residual_gradient(rows, x, problem.rhs, &mut work.gradient);

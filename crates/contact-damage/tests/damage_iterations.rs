@@ -44,8 +44,8 @@ fn multigrid_damage_step_needs_no_factorization_and_its_iteration_counts_stay_bo
     }
 }
 
-/// Most multigrid iterations over the 16 steps at N = 256 against N = 64 (measured 87 against
-/// 80, 1.09; 102 against 80, 1.28, before the coarse obstacle corrections).
+/// Most multigrid iterations over the 16 steps at N = 256 against N = 64 (measured 83 against
+/// 80, 1.04; 102 against 80, 1.28, before the coarse obstacle corrections).
 const MAX_GROWTH_TO_256: f64 = 1.2;
 
 /// At N = 256 the damage matrix is diffusion dominated (a_ii / Σ_j a_ij ≈ 41: the layers
