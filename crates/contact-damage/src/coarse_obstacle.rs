@@ -162,9 +162,19 @@ impl CoarseObstacle {
         }))
     }
 
+    /// Whether a coarse correction is worth computing at a fine iterate with the scaled KKT
+    /// residual `residual`: not once it is below the coarse tolerance, where the coarse
+    /// problem (whose gradient sums the fine one over the aggregates) is almost always solved
+    /// by d = 0 already and the correction would cost its set-up for nothing.
+    pub(crate) fn applies_at(&self, residual: f64) -> bool {
+        residual > self.solver.settings().tolerance
+    }
+
     /// Adds the coarse correction to the feasible `x` with gradient `gradient = Ax − b`;
-    /// returns the number of iterations of the coarse solves at every level. `x` stays within
-    /// `lower ≤ x ≤ upper` and `q(x)` does not increase; the caller recomputes the gradient.
+    /// returns the number of iterations of the coarse solves at every level, 0 when the coarse
+    /// problem is solved by d = 0 to its tolerance and `x` is left as it was. `x` stays within
+    /// `lower ≤ x ≤ upper` and `q(x)` does not increase; after a correction the caller
+    /// recomputes the gradient.
     pub(crate) fn correct(
         &mut self,
         x: &mut [f64],
@@ -195,6 +205,9 @@ impl CoarseObstacle {
                 Err(Error::NoConvergence { iterations, .. }) => iterations,
                 Err(error) => return Err(error),
             };
+        if iterations == 0 {
+            return Ok(0);
+        }
         for (i, &aggregate) in self.aggregates.iter().enumerate() {
             if aggregate != UNASSIGNED {
                 // Within the box: lower_i − x_i ≤ d_J ≤ upper_i − x_i; the clamp only

@@ -636,10 +636,13 @@ impl BoxQpSolver {
         while stats.iterations < self.settings.max_iterations {
             stats.iterations += 1;
             // 0. The coarse obstacle correction (`crate::coarse_obstacle`).
-            if let Some(coarse) = self.coarse.as_mut() {
-                stats.coarse_iterations +=
-                    coarse.correct(x, &work.gradient, problem.lower, problem.upper)?;
-                residual_gradient(rows, x, problem.rhs, &mut work.gradient);
+            let residual = history.last().copied().unwrap_or(f64::INFINITY);
+            if let Some(coarse) = self.coarse.as_mut().filter(|c| c.applies_at(residual)) {
+                let iterations = coarse.correct(x, &work.gradient, problem.lower, problem.upper)?;
+                if iterations > 0 {
+                    stats.coarse_iterations += iterations;
+                    residual_gradient(rows, x, problem.rhs, &mut work.gradient);
+                }
             }
             // 1. Nonlinear smoothing: a symmetric projected Gauss–Seidel sweep.
             projected_gauss_seidel(fine, problem, x, false);
