@@ -98,15 +98,6 @@ pub(crate) struct CoarseObstacle {
     correction: Vec<f64>,
 }
 
-impl std::fmt::Debug for CoarseObstacle {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("CoarseObstacle")
-            .field("fine", &self.aggregates.len())
-            .field("coarse", &self.correction.len())
-            .finish()
-    }
-}
-
 impl CoarseObstacle {
     /// The coarse correction of the box QP with the rows `rows` of `A` (symmetric, both
     /// triangles) and its diagonal, or `None` when `A` is smaller than [`MIN_NESTED_SIZE`],
@@ -199,10 +190,13 @@ impl CoarseObstacle {
                 .solver
                 .solve(&self.rhs, &self.lower, &self.upper, &mut self.correction)
             {
-                Ok(stats) => stats.iterations,
+                Ok(stats) => stats.iterations + stats.coarse_iterations,
                 // A feasible coarse iterate that did not reach the loose tolerance still lowers
                 // the energy (the coarse iteration is monotone); the fine iteration goes on.
                 Err(Error::NoConvergence { iterations, .. }) => iterations,
+                // The correction is only an acceleration: without it the fine iteration, which
+                // meets the same matrix, still converges or reports the failure itself.
+                Err(Error::LinearAlgebra { .. }) => return Ok(0),
                 Err(error) => return Err(error),
             };
         if iterations == 0 {

@@ -33,10 +33,10 @@
 //! prolongation, Galerkin coarse matrices, a dense factor on the coarsest level of at most
 //! 64 unknowns, factorized with diagonal pivoting; no factorization of `A`). One iteration:
 //! 0. **Coarse obstacle correction** (only for large diffusion-dominated matrices;
-//!    `src/coarse_obstacle.rs`): the correction constant on
-//!    the aggregates of the coarsening that minimizes `q` within conservative bounds, by the
-//!    same method on `P̂ᵀAP̂`, recursively. It frees in one step a layer of indices that the
-//!    smoother would free a few cells per iteration.
+//!    `src/coarse_obstacle.rs`): the correction constant on the aggregates of the coarsening
+//!    that minimizes `q` within conservative bounds, by the same method on `P̂ᵀAP̂`,
+//!    recursively. It frees in one step a layer of indices that the smoother would free a
+//!    few cells per iteration.
 //! 1. **Nonlinear smoothing**: a symmetric projected Gauss–Seidel sweep, every `x_i` in turn
 //!    replaced by the exact minimizer of `q` in its interval, `clamp(x_i − g_i/a_ii)`.
 //! 2. **Truncation**: the indices lying on a bound after the smoothing keep their value; the
