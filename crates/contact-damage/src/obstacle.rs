@@ -443,10 +443,8 @@ impl BoxQpSolver {
             )?),
             BoxQpMethod::MonotoneMultigrid => None,
         };
-        let mut coarse = None;
         let multigrid = (settings.method == BoxQpMethod::MonotoneMultigrid).then(|| {
             let rows = Csr::from_symmetric(&matrix);
-            coarse = Some(CoarseObstacle::new(&rows, &diagonal, settings));
             let hierarchy = Hierarchy::new(&rows);
             let fine = FineRows {
                 lower_counts: rows.lower_counts(),
@@ -455,7 +453,10 @@ impl BoxQpSolver {
             };
             (fine, hierarchy)
         });
-        let coarse = coarse.transpose()?.flatten();
+        let coarse = match &multigrid {
+            Some((fine, _)) => CoarseObstacle::new(&fine.rows, &diagonal, settings)?,
+            None => None,
+        };
         Ok(Self {
             matrix,
             settings,

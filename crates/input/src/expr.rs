@@ -1582,6 +1582,24 @@ mod tests {
         outputs
     }
 
+    /// The expression printed from `tree` (None when it does not parse) with the program of
+    /// every derivative the manufactured data use.
+    fn compiled_manufactured(tree: &Tree) -> Option<(String, Expr, Program)> {
+        let source = print(tree, 0);
+        let expression = Expr::parse(&source, &SPACE_TIME, &user_constants()).ok()?;
+        let mut tape = Tape::new(4);
+        let outputs = manufactured_derivatives(&mut tape, &expression);
+        let program = tape.compile(&outputs);
+        Some((source, expression, program))
+    }
+
+    /// One column per variable (x, y, z, t) of the first `count` points.
+    fn point_columns(points: &[[f64; 4]], count: usize) -> Vec<Vec<f64>> {
+        (0..4)
+            .map(|v| points.iter().take(count).map(|p| p[v]).collect())
+            .collect()
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(256))]
 
@@ -1663,17 +1681,11 @@ mod tests {
             tree in tree_strategy(),
             points in proptest::collection::vec(proptest::array::uniform4(-2.0f64..2.0), 1..40),
         ) {
-            let source = print(&tree, 0);
-            let Ok(expression) = Expr::parse(&source, &SPACE_TIME, &user_constants()) else {
+            let Some((source, _, program)) = compiled_manufactured(&tree) else {
                 return Ok(());
             };
-            let mut tape = Tape::new(4);
-            let outputs = manufactured_derivatives(&mut tape, &expression);
-            let program = tape.compile(&outputs);
             for count in [points.len(), split::BATCH.min(points.len())] {
-                let columns: Vec<Vec<f64>> = (0..4)
-                    .map(|v| points.iter().take(count).map(|p| p[v]).collect())
-                    .collect();
+                let columns = point_columns(&points, count);
                 let inputs: Vec<&[f64]> = columns.iter().map(|c| c.as_slice()).collect();
                 let mut baseline = vec![0.0; program.len() * count];
                 program.eval_columns(&inputs, &[], count, &mut baseline, true);
@@ -1697,16 +1709,11 @@ mod tests {
             tree in tree_strategy(),
             points in proptest::collection::vec(proptest::array::uniform4(-2.0f64..2.0), 1..6),
         ) {
-            let source = print(&tree, 0);
-            let Ok(expression) = Expr::parse(&source, &SPACE_TIME, &user_constants()) else {
+            let Some((source, expression, program)) = compiled_manufactured(&tree) else {
                 return Ok(());
             };
-            let mut tape = Tape::new(4);
-            let outputs = manufactured_derivatives(&mut tape, &expression);
-            let program = tape.compile(&outputs);
             let count = points.len();
-            let columns: Vec<Vec<f64>> =
-                (0..4).map(|v| points.iter().map(|p| p[v]).collect()).collect();
+            let columns = point_columns(&points, count);
             let inputs: Vec<&[f64]> = columns.iter().map(|c| c.as_slice()).collect();
             let mut registers = Vec::new();
             program.eval_batch(&inputs, count, &mut registers);
