@@ -82,13 +82,20 @@ pub enum Reference<const D: usize> {
     Discrete(Arc<Vec<State>>),
 }
 
-/// The discrete solution at one quadrature point.
-struct DiscretePoint<const D: usize> {
+/// The gradients of the discrete solution at a point: ε(u_h), ε(v_h) and ∇β_h (on an affine
+/// P1 cell the same at every point of the cell).
+#[derive(Clone, Copy)]
+struct CellFields<const D: usize> {
     strain: Tensor<D>,
     /// ε(v_n).
     rate: Tensor<D>,
-    damage: f64,
     damage_gradient: SVector<f64, D>,
+}
+
+/// The discrete solution at one quadrature point.
+struct DiscretePoint<const D: usize> {
+    fields: CellFields<D>,
+    damage: f64,
     /// Quadrature weight × |det J|.
     weight: f64,
 }
@@ -97,9 +104,7 @@ struct DiscretePoint<const D: usize> {
 /// for a discrete reference, its ε(u), ε(u) at the previous time and ∇β.
 #[derive(Clone, Copy)]
 struct CellGradients<const D: usize> {
-    strain: Tensor<D>,
-    rate: Tensor<D>,
-    damage_gradient: SVector<f64, D>,
+    fields: CellFields<D>,
     reference: Option<(Tensor<D>, Tensor<D>, SVector<f64, D>)>,
 }
 
@@ -114,6 +119,20 @@ fn scalar_gradient<const D: usize>(
         .enumerate()
         .map(|(a, &node)| grads[a] * nodal[node])
         .fold(SVector::<f64, D>::zeros(), |acc, g| acc + g)
+}
+
+/// ε(u_h), ε(v_h) and ∇β_h of `state` on a cell, from the physical basis gradients of its
+/// nodes at a point.
+fn cell_fields<const D: usize>(
+    nodes: &[usize],
+    grads: &[SVector<f64, D>],
+    state: &State,
+) -> CellFields<D> {
+    CellFields {
+        strain: field_strain(nodes, grads, &state.displacement),
+        rate: field_strain(nodes, grads, &state.velocity),
+        damage_gradient: scalar_gradient(nodes, grads, &state.damage),
+    }
 }
 
 /// A nodal scalar field at a point, from the basis values there.
@@ -144,10 +163,28 @@ fn accumulate<const D: usize>(
     discrete: &DiscretePoint<D>,
     reference: &ReferencePoint<D>,
 ) {
-    let weight = discrete.weight;
+    accumulate_parts(
+        local,
+        discrete.weight,
+        &discrete.fields,
+        discrete.damage,
+        reference,
+    );
+}
+
+/// [`accumulate`] with the discrete values of the point given apart: its weight, its
+/// gradients (those of its cell for affine P1) and β_h there.
+#[inline(always)]
+fn accumulate_parts<const D: usize>(
+    local: &mut [f64; 5],
+    weight: f64,
+    discrete: &CellFields<D>,
+    damage: f64,
+    reference: &ReferencePoint<D>,
+) {
     local[0] += weight * (reference.strain - discrete.strain).norm_squared();
     local[1] += weight * (reference.quotient - discrete.rate).norm_squared();
-    local[2] += weight * (reference.damage - discrete.damage).powi(2);
+    local[2] += weight * (reference.damage - damage).powi(2);
     local[3] += weight * (reference.damage_gradient - discrete.damage_gradient).norm_squared();
     if let Some(rate) = reference.rate {
         local[4] += weight * (rate - discrete.rate).norm_squared();
@@ -185,9 +222,7 @@ fn discrete_points<const D: usize>(
                     physical_gradients(geometry, tab, q, &mut grads);
                     let grads = &grads[..n_nodes];
                     let values = CellGradients {
-                        strain: field_strain(nodes, grads, &state.displacement),
-                        rate: field_strain(nodes, grads, &state.velocity),
-                        damage_gradient: scalar_gradient(nodes, grads, &state.damage),
+                        fields: cell_fields(nodes, grads, state),
                         reference: reference.map(|(reference, previous_displacement, _)| {
                             (
                                 field_strain(nodes, grads, &reference.displacement),
@@ -202,10 +237,8 @@ fn discrete_points<const D: usize>(
             };
             let values = &tab.values[q * n_nodes..(q + 1) * n_nodes];
             discrete.push(DiscretePoint {
-                strain: cell_values.strain,
-                rate: cell_values.rate,
+                fields: cell_values.fields,
                 damage: scalar_value(nodes, values, &state.damage),
-                damage_gradient: cell_values.damage_gradient,
                 weight: tab.weights[q] * geometry.det,
             });
             if let (Some((reference, _, k)), Some((strain, previous, damage_gradient))) =
@@ -223,6 +256,60 @@ fn discrete_points<const D: usize>(
     }
 }
 
+/// The discrete solutions of a block of states on the cells of a chunk, state after state:
+/// ε(u_h), ε(v_h) and ∇β_h once per cell on affine P1 cells (`constant_gradients`), else once
+/// per quadrature point, and β_h at every quadrature point.
+struct DiscreteChunk<const D: usize> {
+    fields: Vec<CellFields<D>>,
+    damage: Vec<f64>,
+}
+
+impl<const D: usize> DiscreteChunk<D> {
+    fn new(
+        space: &LagrangeSpace<D>,
+        tab: &Tabulation<D>,
+        constant_gradients: bool,
+        states: &[State],
+        cells: std::ops::Range<usize>,
+    ) -> Self {
+        let (nq, n_nodes) = (tab.len(), tab.nodes);
+        let per_state = cells.len() * nq;
+        let fields_per_state = if constant_gradients {
+            cells.len()
+        } else {
+            per_state
+        };
+        let zero = CellFields {
+            strain: Tensor::<D>::zeros(),
+            rate: Tensor::<D>::zeros(),
+            damage_gradient: SVector::<f64, D>::zeros(),
+        };
+        let mut fields = vec![zero; states.len() * fields_per_state];
+        let mut damage = vec![0.0; states.len() * per_state];
+        let mut grads = [SVector::<f64, D>::zeros(); contact_damage::element::MAX_CELL_NODES];
+        for (c, cell) in cells.enumerate() {
+            let geometry = space.geometry(cell);
+            let nodes = space.cell_nodes(cell);
+            for q in 0..nq {
+                let point = c * nq + q;
+                if q == 0 || !constant_gradients {
+                    physical_gradients(geometry, tab, q, &mut grads);
+                    let at = if constant_gradients { c } else { point };
+                    for (s, state) in states.iter().enumerate() {
+                        fields[s * fields_per_state + at] =
+                            cell_fields(nodes, &grads[..n_nodes], state);
+                    }
+                }
+                let values = &tab.values[q * n_nodes..(q + 1) * n_nodes];
+                for (s, state) in states.iter().enumerate() {
+                    damage[s * per_state + point] = scalar_value(nodes, values, &state.damage);
+                }
+            }
+        }
+        Self { fields, damage }
+    }
+}
+
 /// Accumulates the error components over the steps of one run (used inside the observer).
 pub struct ErrorTracker<const D: usize> {
     reference: Reference<D>,
@@ -232,6 +319,8 @@ pub struct ErrorTracker<const D: usize> {
     constant_gradients: bool,
     /// Physical quadrature points, cell-major.
     points: Vec<[f64; D]>,
+    /// Their weights × |det J|.
+    weights: Vec<f64>,
     time_step: f64,
     steps: usize,
     /// Reference ε(u) at the quadrature points at the previous time.
@@ -277,6 +366,12 @@ impl<const D: usize> ErrorTracker<D> {
                 tabulation.points.iter().map(|xi| geometry.point(xi))
             })
             .collect();
+        let weights = (0..space.mesh().num_cells())
+            .flat_map(|cell| {
+                let det = space.geometry(cell).det;
+                tabulation.weights.iter().map(move |w| w * det)
+            })
+            .collect();
         let nodes = tabulation.nodes;
         let constant_gradients = tabulation
             .gradients
@@ -287,6 +382,7 @@ impl<const D: usize> ErrorTracker<D> {
             constant_gradients,
             tabulation,
             points,
+            weights,
             time_step,
             steps,
             previous_strain: Vec::new(),
@@ -375,6 +471,7 @@ impl<const D: usize> ErrorTracker<D> {
         new_strain.resize(space.mesh().num_cells() * nq, Tensor::<D>::zeros());
         let previous_strain = &self.previous_strain;
         let points = &self.points;
+        let weights = &self.weights;
         let constant_gradients = self.constant_gradients;
         // Per chunk: the weighted squared differences [u, δu, β, ∇β, v] of each state.
         let chunk_sums: Vec<Vec<[f64; 5]>> = new_strain
@@ -384,25 +481,20 @@ impl<const D: usize> ErrorTracker<D> {
                 let first_cell = chunk * CHUNK_CELLS;
                 let cells = strain_out.len() / nq;
                 let per_state = cells * nq;
-                // The discrete fields at every quadrature point of the chunk, state after state.
-                let mut discrete = Vec::with_capacity(states.len() * per_state);
-                for state in &states {
-                    discrete_points(
-                        space,
-                        tab,
-                        constant_gradients,
-                        state,
-                        None,
-                        first_cell..first_cell + cells,
-                        &mut discrete,
-                        &mut Vec::new(),
-                    );
-                }
+                let discrete = DiscreteChunk::new(
+                    space,
+                    tab,
+                    constant_gradients,
+                    &states,
+                    first_cell..first_cell + cells,
+                );
+                let fields_per_state = if constant_gradients { cells } else { per_state };
                 let mut local = vec![[0.0; 5]; states.len()];
                 // ε(u) at the points of the batch at the previous time.
                 let mut previous = [Tensor::<D>::zeros(); BATCH];
                 let first_point = first_cell * nq;
                 let range = first_point..first_point + per_state;
+                let weights = &weights[range.clone()];
                 let last = states.len() - 1;
                 exact
                     .errors
@@ -416,6 +508,11 @@ impl<const D: usize> ErrorTracker<D> {
                         let beta = columns.get(Quantity::Damage);
                         let b: [&[f64]; D] =
                             std::array::from_fn(|j| columns.get(Quantity::DamageGradient(j)));
+                        let fields =
+                            &discrete.fields[at * fields_per_state..(at + 1) * fields_per_state];
+                        let damage_h = &discrete.damage[at * per_state..(at + 1) * per_state];
+                        // the cell of the batch's first point and the point's index in it
+                        let (mut cell, mut in_cell) = (offset / nq, offset % nq);
                         for (p, &damage) in beta.iter().enumerate() {
                             let point = offset + p;
                             let strain = sym(&SMatrix::<f64, D, D>::from_fn(|i, j| g[i][j][p]));
@@ -431,11 +528,18 @@ impl<const D: usize> ErrorTracker<D> {
                                 damage,
                                 damage_gradient: SVector::<f64, D>::from_fn(|j, _| b[j][p]),
                             };
-                            accumulate(
+                            let at_point = if constant_gradients { cell } else { point };
+                            accumulate_parts(
                                 &mut local[at],
-                                &discrete[at * per_state + point],
+                                weights[point],
+                                &fields[at_point],
+                                damage_h[point],
                                 &reference,
                             );
+                            in_cell += 1;
+                            if in_cell == nq {
+                                (cell, in_cell) = (cell + 1, 0);
+                            }
                             previous[p] = strain;
                             if at == last {
                                 strain_out[point] = strain;
