@@ -82,6 +82,7 @@ pub mod space;
 pub mod stability;
 #[cfg(test)]
 mod test_random;
+mod triangular;
 pub mod velocity;
 pub mod vtk;
 
