@@ -515,11 +515,13 @@ fn render(
     }
     let _ = writeln!(
         out,
-        "\n## Simplicial against supernodal Cholesky (faer)\n\nms, numeric factorization (once) / one solve (best of 5); \
+        "\n## Simplicial against supernodal Cholesky (faer)\n\nms, numeric factorization (once) / one solve (best of 5; \
+         with the supernodal factor the solver's own sweeps, column by column over the supernodes narrower than 32 \
+         columns and faer's dense kernels over the wider ones, since session 17); \
          *auto* = faer's own choice (flop-ratio rule). The velocity operator uses it (supernodal; the trailing block \
          of the supernodal factor is the condensed operator of (5.1)); the damage box QP needs no factor with the \
-         default monotone multigrid, and the simplicial one (`BoxQpSettings::factorization`, factorized once per run, \
-         its solves are faster) with the active set method.\n"
+         default monotone multigrid, and the simplicial one (`BoxQpSettings::factorization`, factorized once per run) \
+         with the active set method.\n"
     );
     let _ = writeln!(
         out,
