@@ -16,7 +16,7 @@
 //! slightly between nodes).
 
 use crate::assembly::damage_element_matrix;
-use crate::linalg::{multiply, SparsityPattern};
+use crate::linalg::{multiply_symmetric, SparsityPattern};
 use crate::obstacle::{BoxQpSettings, BoxQpSolver, BoxQpStats};
 use crate::quadrature::QuadratureRule;
 use crate::space::{LagrangeSpace, Tabulation};
@@ -147,7 +147,7 @@ impl<const D: usize> DamageOperator<D> {
                 self.space.node(i)
             )));
         }
-        let inertia = multiply(&self.mass, previous);
+        let inertia = multiply_symmetric(&self.mass, previous);
         let rhs: Vec<f64> = inertia
             .iter()
             .zip(source)

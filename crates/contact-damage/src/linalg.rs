@@ -520,6 +520,35 @@ pub fn multiply_into(matrix: &SparseColMat<usize, f64>, x: &[f64], product: &mut
     }
 }
 
+/// y = A x for a symmetric matrix in full (both triangles) storage: see
+/// [`multiply_symmetric_into`].
+pub fn multiply_symmetric(matrix: &SparseColMat<usize, f64>, x: &[f64]) -> Vec<f64> {
+    let mut y = vec![0.0; matrix.nrows()];
+    multiply_symmetric_into(matrix, x, &mut y);
+    y
+}
+
+/// `product = A x` for a symmetric matrix A in full (both triangles) storage, gathered: column
+/// j of A is row j, so each entry of the product is one sequential sum over a stored column,
+/// with no scattered writes (about twice as fast as [`multiply_into`]'s scatter on the
+/// velocity operator). For a matrix stored bitwise symmetric (the mass matrices and the 2D
+/// velocity operators of this crate) the result is bitwise that of [`multiply_into`]: both sum
+/// the terms of a row in increasing column order, starting from zero; where the stored values
+/// differ from their transposes by rounding (the 3D velocity operator), so do the products.
+pub fn multiply_symmetric_into(matrix: &SparseColMat<usize, f64>, x: &[f64], product: &mut [f64]) {
+    let col_ptr = matrix.symbolic().col_ptr();
+    let row_idx = matrix.symbolic().row_idx();
+    let values = matrix.val();
+    for (j, entry) in product.iter_mut().enumerate().take(matrix.ncols()) {
+        let range = col_ptr[j]..col_ptr[j + 1];
+        let mut sum = 0.0;
+        for (&i, &a) in row_idx[range.clone()].iter().zip(&values[range]) {
+            sum += a * x[i];
+        }
+        *entry = sum;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -543,6 +572,41 @@ mod tests {
         solver.factorize(&matrix).unwrap();
         let y = solver.solve(&[2.0, 3.0]).unwrap();
         assert!((y[0] - 1.0).abs() < 1e-14 && (y[1] - 1.0).abs() < 1e-14);
+    }
+
+    #[test]
+    fn symmetric_product_is_bitwise_the_scatter_product_of_a_symmetric_matrix() {
+        // a bitwise symmetric matrix with a random pattern and values, and a vector with zeros
+        let n = 60;
+        let mut state = 12345u64;
+        let mut random = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
+        };
+        let mut triplets = Vec::new();
+        for i in 0..n {
+            triplets.push(faer::sparse::Triplet::new(i, i, 4.0 + random()));
+            for j in 0..i {
+                if random() > 0.3 {
+                    let value = random();
+                    triplets.push(faer::sparse::Triplet::new(i, j, value));
+                    triplets.push(faer::sparse::Triplet::new(j, i, value));
+                }
+            }
+        }
+        let matrix = SparseColMat::<usize, f64>::try_new_from_triplets(n, n, &triplets).unwrap();
+        let x: Vec<f64> = (0..n)
+            .map(|i| if i % 7 == 0 { 0.0 } else { random() * 1e3 })
+            .collect();
+        let scatter = multiply(&matrix, &x);
+        let gather = multiply_symmetric(&matrix, &x);
+        assert_eq!(
+            scatter.iter().map(|v| v.to_bits()).collect::<Vec<_>>(),
+            gather.iter().map(|v| v.to_bits()).collect::<Vec<_>>()
+        );
+        assert!(scatter.iter().any(|v| *v != 0.0));
     }
 
     #[test]

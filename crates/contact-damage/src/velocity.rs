@@ -64,7 +64,7 @@ use crate::assembly::viscous_element_matrix;
 use crate::contact::{ContactNodes, ContactStatus};
 use crate::friction::{CondensedFriction, FrictionSettings};
 use crate::laws::{ContactLaw, Viscosity};
-use crate::linalg::{multiply, CholeskySolver, SparsityPattern};
+use crate::linalg::{multiply_symmetric, CholeskySolver, SparsityPattern};
 use crate::mesh::BoundaryPart;
 use crate::ordering::{fill_reducing_node_order, NodeGraph};
 use crate::quadrature::QuadratureRule;
@@ -767,7 +767,7 @@ impl<const D: usize> VelocityOperator<D> {
     ) -> f64 {
         let force = if self.law.is_linear() && self.implicit.is_none() && self.matrix_is_plain {
             // H_ff v_f on the free rows (the load is lifted)
-            multiply(&self.matrix, velocity_system)
+            multiply_symmetric(&self.matrix, velocity_system)
         } else {
             self.energy_and_force(velocity_system).1
         };
@@ -1027,7 +1027,7 @@ impl<const D: usize> VelocityOperator<D> {
                 friction_settings.tolerance = (friction_settings.tolerance
                     * (0.1 * settings.tolerance / reached))
                     .clamp(MIN_FRICTION_TOLERANCE, friction_settings.tolerance);
-                let hv = multiply(&self.matrix, &velocity);
+                let hv = multiply_symmetric(&self.matrix, &velocity);
                 let residual: Vec<f64> = load.iter().zip(&hv).map(|(b, h)| b - h).collect();
                 (residual, Some(velocity.as_slice()))
             } else {
