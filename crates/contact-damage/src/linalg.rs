@@ -578,13 +578,8 @@ mod tests {
     fn symmetric_product_is_bitwise_the_scatter_product_of_a_symmetric_matrix() {
         // a bitwise symmetric matrix with a random pattern and values, and a vector with zeros
         let n = 60;
-        let mut state = 12345u64;
-        let mut random = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
-        };
+        let mut generator = crate::test_random::SeededRandom::new(12345);
+        let mut random = || generator.range(-0.5, 0.5);
         let mut triplets = Vec::new();
         for i in 0..n {
             triplets.push(faer::sparse::Triplet::new(i, i, 4.0 + random()));

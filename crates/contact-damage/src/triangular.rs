@@ -196,15 +196,8 @@ mod tests {
     /// plus `dense` trailing unknowns coupled with each other and with every `stride`-th
     /// unknown (a wide trailing supernode, as the separators of a 3D factor).
     fn matrix(n: usize, dense: usize, stride: usize, seed: u64) -> SparseColMat<usize, f64> {
-        let mut state = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        let mut random = || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64) / ((1u64 << 53) as f64) - 0.5
-        };
+        let mut generator = crate::test_random::SeededRandom::new(seed);
+        let mut random = || generator.range(-0.5, 0.5);
         let mut triplets = Vec::new();
         let mut diagonal = vec![1.0; n];
         let mut couple = |i: usize, j: usize, value: f64, diagonal: &mut Vec<f64>| {
