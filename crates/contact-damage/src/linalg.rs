@@ -435,7 +435,7 @@ impl CholeskySolver {
                 .collect(),
             None => rhs.to_vec(),
         };
-        triangular::forward(symbolic, values, &mut z, &mut Vec::new());
+        triangular::forward(symbolic, values, &mut z);
         Ok(Some(z))
     }
 
@@ -447,7 +447,7 @@ impl CholeskySolver {
         };
         self.check_length(z.len())?;
         let mut y = z.to_vec();
-        triangular::backward(symbolic, values, &mut y, &mut Vec::new());
+        triangular::backward(symbolic, values, &mut y);
         Ok(Some(match self.symbolic.perm() {
             Some(perm) => {
                 let mut x = vec![0.0; self.size];
@@ -531,10 +531,11 @@ pub fn multiply_symmetric(matrix: &SparseColMat<usize, f64>, x: &[f64]) -> Vec<f
 /// `product = A x` for a symmetric matrix A in full (both triangles) storage, gathered: column
 /// j of A is row j, so each entry of the product is one sequential sum over a stored column,
 /// with no scattered writes (about twice as fast as [`multiply_into`]'s scatter on the
-/// velocity operator). For a matrix stored bitwise symmetric (the mass matrices and the 2D
+/// velocity operator). For a matrix stored bitwise symmetric (the mass matrices and the 2D P1
 /// velocity operators of this crate) the result is bitwise that of [`multiply_into`]: both sum
 /// the terms of a row in increasing column order, starting from zero; where the stored values
-/// differ from their transposes by rounding (the 3D velocity operator), so do the products.
+/// differ from their transposes by rounding (the P2 and the 3D velocity operators), so do the
+/// products.
 pub fn multiply_symmetric_into(matrix: &SparseColMat<usize, f64>, x: &[f64], product: &mut [f64]) {
     let col_ptr = matrix.symbolic().col_ptr();
     let row_idx = matrix.symbolic().row_idx();

@@ -80,13 +80,10 @@ fn supernode<'a>(
     }
 }
 
-/// z ← L⁻¹ z (z in elimination order); `workspace` is scratch for the wide supernodes.
-pub(crate) fn forward(
-    symbolic: &SymbolicSupernodalCholesky<usize>,
-    values: &[f64],
-    z: &mut [f64],
-    workspace: &mut Vec<f64>,
-) {
+/// z ← L⁻¹ z (z in elimination order).
+pub(crate) fn forward(symbolic: &SymbolicSupernodalCholesky<usize>, values: &[f64], z: &mut [f64]) {
+    // the pattern's products (forward) or values (backward) of a wide supernode
+    let mut workspace = Vec::new();
     for s in 0..symbolic.n_supernodes() {
         let node = supernode(symbolic, values, s);
         let (start, end) = (node.start, node.start + node.size);
@@ -101,7 +98,7 @@ pub(crate) fn forward(
             workspace.clear();
             workspace.resize(node.pattern.len(), 0.0);
             faer::linalg::matmul::matmul(
-                MatMut::from_column_major_slice_mut(workspace, node.pattern.len(), 1),
+                MatMut::from_column_major_slice_mut(&mut workspace, node.pattern.len(), 1),
                 Accum::Replace,
                 below,
                 MatRef::from_column_major_slice(&z[start..end], node.size, 1),
@@ -128,13 +125,14 @@ pub(crate) fn forward(
     }
 }
 
-/// z ← L⁻ᵀ z (z in elimination order); `workspace` is scratch for the wide supernodes.
+/// z ← L⁻ᵀ z (z in elimination order).
 pub(crate) fn backward(
     symbolic: &SymbolicSupernodalCholesky<usize>,
     values: &[f64],
     z: &mut [f64],
-    workspace: &mut Vec<f64>,
 ) {
+    // the pattern's products (forward) or values (backward) of a wide supernode
+    let mut workspace = Vec::new();
     for s in (0..symbolic.n_supernodes()).rev() {
         let node = supernode(symbolic, values, s);
         let (start, end) = (node.start, node.start + node.size);
@@ -147,7 +145,7 @@ pub(crate) fn backward(
                 top.as_mut(),
                 Accum::Add,
                 below.transpose(),
-                MatRef::from_column_major_slice(workspace, node.pattern.len(), 1),
+                MatRef::from_column_major_slice(&workspace, node.pattern.len(), 1),
                 -1.0,
                 Par::Seq,
             );

@@ -100,12 +100,12 @@ struct DiscretePoint<const D: usize> {
     weight: f64,
 }
 
-/// The discrete quantities that are constant on an affine P1 cell: ε(u_h), ε(v_h), ∇β_h and,
-/// for a discrete reference, its ε(u), ε(u) at the previous time and ∇β.
+/// The discrete quantities that are constant on an affine P1 cell: ε(u_h), ε(v_h), ∇β_h and
+/// the discrete reference's ε(u), ε(u) at the previous time and ∇β.
 #[derive(Clone, Copy)]
 struct CellGradients<const D: usize> {
     fields: CellFields<D>,
-    reference: Option<(Tensor<D>, Tensor<D>, SVector<f64, D>)>,
+    reference: (Tensor<D>, Tensor<D>, SVector<f64, D>),
 }
 
 /// ∇ of a nodal scalar field on a cell, from the physical basis gradients of its nodes.
@@ -194,17 +194,17 @@ fn accumulate_parts<const D: usize>(
 }
 
 /// The discrete solution `state` at every quadrature point of `cells` (cell-major) into
-/// `discrete`, and with a discrete reference (its state, the previous reference displacement
-/// and k) the reference at the same points into `references`. Affine P1
+/// `discrete`, and the discrete reference (its state, the previous reference displacement and
+/// k) at the same points into `references`. Affine P1
 /// (`constant_gradients`): the gradients, hence the strains and the damage gradients, are the
 /// same at every point of a cell and computed once.
-#[allow(clippy::too_many_arguments, clippy::type_complexity)]
+#[allow(clippy::too_many_arguments)]
 fn discrete_points<const D: usize>(
     space: &LagrangeSpace<D>,
     tab: &Tabulation<D>,
     constant_gradients: bool,
     state: &State,
-    reference: Option<(&State, &[f64], f64)>,
+    (reference, previous_displacement, k): (&State, &[f64], f64),
     cells: std::ops::Range<usize>,
     discrete: &mut Vec<DiscretePoint<D>>,
     references: &mut Vec<ReferencePoint<D>>,
@@ -223,13 +223,11 @@ fn discrete_points<const D: usize>(
                     let grads = &grads[..n_nodes];
                     let values = CellGradients {
                         fields: cell_fields(nodes, grads, state),
-                        reference: reference.map(|(reference, previous_displacement, _)| {
-                            (
-                                field_strain(nodes, grads, &reference.displacement),
-                                field_strain(nodes, grads, previous_displacement),
-                                scalar_gradient(nodes, grads, &reference.damage),
-                            )
-                        }),
+                        reference: (
+                            field_strain(nodes, grads, &reference.displacement),
+                            field_strain(nodes, grads, previous_displacement),
+                            scalar_gradient(nodes, grads, &reference.damage),
+                        ),
                     };
                     gradients_at = Some(values);
                     values
@@ -241,17 +239,14 @@ fn discrete_points<const D: usize>(
                 damage: scalar_value(nodes, values, &state.damage),
                 weight: tab.weights[q] * geometry.det,
             });
-            if let (Some((reference, _, k)), Some((strain, previous, damage_gradient))) =
-                (reference, cell_values.reference)
-            {
-                references.push(ReferencePoint {
-                    strain,
-                    quotient: (strain - previous) / k,
-                    rate: None,
-                    damage: scalar_value(nodes, values, &reference.damage),
-                    damage_gradient,
-                });
-            }
+            let (strain, previous, damage_gradient) = cell_values.reference;
+            references.push(ReferencePoint {
+                strain,
+                quotient: (strain - previous) / k,
+                rate: None,
+                damage: scalar_value(nodes, values, &reference.damage),
+                damage_gradient,
+            });
         }
     }
 }
@@ -600,7 +595,7 @@ impl<const D: usize> ErrorTracker<D> {
                     tab,
                     constant_gradients,
                     state,
-                    Some((reference_state, previous_displacement, k)),
+                    (reference_state, previous_displacement, k),
                     first_cell..first_cell + cells,
                     &mut discrete,
                     &mut references,
