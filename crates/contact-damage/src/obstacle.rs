@@ -142,10 +142,18 @@
 //! of `examples/common/moving_damage.rs`). The projected Newton direction of step 3 is computed
 //! by the same CG from zero (a descent direction at any iteration).
 //!
-//! The factor is simplicial by default ([`FactorKind::Simplicial`]): it is computed once per
-//! run, and only the solves count; measured on P1 damage matrices (`reports/benchmark_step.md`)
-//! the simplicial solve is 1.5–1.7× faster in 2D than the supernodal one that faer's own rule
-//! picks from N = 256 on, and 1.8× slower in 3D at 16³.
+//! The factor is chosen by faer's own rule by default ([`FactorKind::Auto`]: supernodal when
+//! the flops per factor entry are high, i.e. in 3D and on the finer 2D meshes). It is computed
+//! once per run and solved with a few times per step. Measured on the P1 damage matrices of
+//! `reports/benchmark_step.md` (factorization / one solve, ms, simplicial against supernodal,
+//! the supernodal solve by the solver's own sweeps, `crate::triangular`): 2D 128² 20.6 / 0.92
+//! against 11.0 / 0.99 (the rule picks simplicial), 256² 146 / 3.85 against 38.7 / 3.97,
+//! 512² 1279 / 19.2 against 253 / 20.4, 3D 16³ 78 / 0.96 against 10.0 / 0.53, 3D 32³
+//! 18 945 / 31.0 against 744 / 34.2. In 3D the supernodal factor wins (18 s less
+//! factorization at 32³ for about 0.9 s more solving over 128 steps of two solves); in 2D
+//! the cheaper factorization and the slightly slower solves about cancel (at 512², about 25
+//! solves per step: 1.0 s less factorization, about 3.8 s more solving over 128 steps, 2 % of
+//! the run), so one rule for both is faer's.
 //!
 //! # References
 //! - C. Gräser, R. Kornhuber, *Multigrid methods for obstacle problems*, J. Comput. Math. 27
@@ -182,7 +190,7 @@ pub struct BoxQpSettings {
     /// (default 100). The active set phase may use at most half of them.
     pub max_iterations: usize,
     /// Simplicial or supernodal Cholesky factor of `A` for [`BoxQpMethod::ActiveSet`]
-    /// (default [`FactorKind::Simplicial`]).
+    /// (default [`FactorKind::Auto`], faer's rule; see the module documentation).
     pub factorization: FactorKind,
     /// The algorithm (default [`BoxQpMethod::MonotoneMultigrid`]).
     pub method: BoxQpMethod,
@@ -206,7 +214,7 @@ impl Default for BoxQpSettings {
         Self {
             tolerance: 1e-12,
             max_iterations: 100,
-            factorization: FactorKind::Simplicial,
+            factorization: FactorKind::Auto,
             method: BoxQpMethod::MonotoneMultigrid,
         }
     }
