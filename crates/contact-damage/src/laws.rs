@@ -67,6 +67,16 @@ pub trait Viscosity<const D: usize>: Send + Sync {
         }
         divergence
     }
+    /// Σ_p w_p 𝒜(ε_p)·ε_p: the viscous power Σ_p w_p 𝒜ε·ε of a batch of strain rates with the
+    /// weights of a quadrature rule (pairs beyond the shorter slice are ignored). One call
+    /// through a trait object per batch, the law's own [`Viscosity::stress`] inlined in the loop.
+    fn weighted_power_sum(&self, strain_rates: &[Tensor<D>], weights: &[f64]) -> f64 {
+        strain_rates
+            .iter()
+            .zip(weights)
+            .map(|(rate, weight)| weight * self.stress(rate).dot(rate))
+            .sum()
+    }
     /// [`Viscosity::stress_divergence`] at a batch of points, from the partial derivatives
     /// of the velocity field there (columns, see [`FieldJets`]): `out[i][p]` is component i
     /// at point p, for the first `out[0].len()` points. Bitwise the values point by point;

@@ -41,10 +41,8 @@ use contact_damage::contact::ContactStatus;
 use contact_damage::damage::assemble_damage_matrix;
 use contact_damage::linalg::{CholeskySolver, FactorKind};
 use contact_damage::obstacle::BoxQpMethod;
-use contact_damage::quadrature::QuadratureRule;
 use contact_damage::scheme::Simulation;
-use contact_damage::space::Tabulation;
-use simulate::history::RunningSums;
+use simulate::history::{DomainQuadrature, RunningSums};
 use simulate::pictures::ContactLine;
 use simulate::problem::{parse_problem_file, ProblemSetup};
 use simulate::record::record_step;
@@ -240,7 +238,7 @@ struct Window {
 fn measure_window<const D: usize>(
     setup: &ProblemSetup<D>,
     simulation: &mut Simulation<D>,
-    tabulation: &Tabulation<D>,
+    quadrature: &DomainQuadrature<D>,
     axis: usize,
     sums: &mut RunningSums,
 ) -> Result<Window, Failure> {
@@ -257,7 +255,7 @@ fn measure_window<const D: usize>(
         let outcome = simulation.step()?;
         total += started.elapsed().as_secs_f64();
         let started = Instant::now();
-        let record = record_step(setup, simulation, &outcome, tabulation, axis, sums);
+        let record = record_step(setup, simulation, &outcome, quadrature, axis, sums);
         std::hint::black_box(record.row.csv_line());
         statistics += started.elapsed().as_secs_f64();
         let contact_damage::StepOutcome {
@@ -306,10 +304,7 @@ fn measure<const D: usize>(cells: usize) -> Result<String, Failure> {
     let space = simulation.space().clone();
     let contact = simulation.contact().clone();
     let line = ContactLine::new(&space, &contact);
-    let tabulation = Tabulation::cell_rule(
-        space.element(),
-        &QuadratureRule::<D>::simplex(2 * space.degree()),
-    );
+    let quadrature = DomainQuadrature::new(&space, 2 * space.degree());
     let mut sums = RunningSums::new(contact.len());
     let k = simulation.time_step();
 
@@ -329,7 +324,7 @@ fn measure<const D: usize>(cells: usize) -> Result<String, Failure> {
     for _ in 0..REPEATS {
         simulation.set_state(start_state.clone())?;
         sums = start_sums.clone();
-        let window = measure_window(&setup, &mut simulation, &tabulation, line.axis, &mut sums)?;
+        let window = measure_window(&setup, &mut simulation, &quadrature, line.axis, &mut sums)?;
         let solver = simulation.velocity_operator().solver();
         let reference = best_of(REFERENCE_SOLVES, || solver.solve(&rhs));
         references.push(reference);

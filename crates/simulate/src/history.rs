@@ -30,6 +30,7 @@
 
 use crate::problem::ProblemSetup;
 use contact_damage::contact::{ContactNodes, ContactStatus};
+use contact_damage::quadrature::QuadratureRule;
 use contact_damage::space::{strain, LagrangeSpace, Tabulation};
 use contact_input::output::write_atomic;
 use contact_input::InputError;
@@ -319,71 +320,184 @@ fn sum_over_cells<const N: usize>(
     })
 }
 
-/// ∫_Ω β / |Ω| and |{β < 1/2}|, both by the rule of `tabulation`.
-pub fn damage_integrals<const D: usize>(
-    space: &LagrangeSpace<D>,
-    tabulation: &Tabulation<D>,
-    damage: &[f64],
-) -> (f64, f64) {
-    let n = tabulation.nodes;
-    let [volume, integral, weak_area] = sum_over_cells(space.mesh().num_cells(), |cells| {
-        let mut sums = [0.0; 3];
-        for c in cells {
-            let det = space.geometry(c).det.abs();
-            let nodes = space.cell_nodes(c);
-            for q in 0..tabulation.len() {
-                let values = &tabulation.values[q * n..(q + 1) * n];
-                let beta: f64 = nodes.iter().zip(values).map(|(&a, v)| damage[a] * v).sum();
-                let weight = tabulation.weights[q] * det;
-                sums[0] += weight;
-                sums[1] += weight * beta;
-                if beta < 0.5 {
-                    sums[2] += weight;
-                }
-            }
-        }
-        sums
-    });
-    (integral / volume, weak_area)
+/// Terms per partial sum of [`blocked_sum`].
+const SUM_BLOCK: usize = 1024;
+
+/// The sum of the partial sums of consecutive blocks of [`SUM_BLOCK`] terms: a sum of n terms of
+/// one sign then errs by about SUM_BLOCK + n/SUM_BLOCK roundings instead of n. A mesh of
+/// equal cells adds the same weight 10⁵ times: at the last step of the 128² run of
+/// `bench_run`, the mean damage Σ_a β_a ∫φ_a / |Ω| (with |Ω| the sum of the point weights)
+/// erred by 1.5e-12 relative with one running sum and by 5e-15 in blocks; with |Ω| = Σ_a ∫φ_a
+/// in blocks by 3e-16 (against the exact rational sums of the same nodal values; the cell
+/// sums before session 18: 1.8e-13).
+fn blocked_sum(partial_sums: impl Iterator<Item = f64>) -> f64 {
+    partial_sums.sum()
 }
 
-/// ∫_Ω 𝒜ε(v)·ε(v) by the rule of `tabulation` (exact for a linear 𝒜 when the rule has
+/// The quadrature rule of the integrals over Ω in `history.csv`, with what does not change
+/// during a run computed once: the weight × |det J| of every point, ∫_Ω φ_a of every basis
+/// function (∫_Ω β_h = Σ_a β_a ∫_Ω φ_a, one pass over the nodes per step), and for P1, whose
+/// basis gradients are constant on a cell, the physical gradients and the measure of every
+/// cell.
+#[derive(Debug, Clone)]
+pub struct DomainQuadrature<const D: usize> {
+    tabulation: Tabulation<D>,
+    /// w_q |det J| at every point, cell-major.
+    weights: Vec<f64>,
+    /// ∫_Ω φ_a by the rule, by node.
+    node_integrals: Vec<f64>,
+    /// |Ω| by the rule, as Σ_a ∫_Ω φ_a.
+    volume: f64,
+    /// Whether every basis function is ≥ 0 at every point of the rule (P1 with interior
+    /// points): β_h at a point is then a convex combination of the nodal values of its cell,
+    /// so a cell whose nodal values are all ≥ 1/2 adds nothing to |{β < 1/2}|.
+    convex: bool,
+    /// P1: the physical basis gradients of every cell, `nodes` per cell (empty for l ≥ 2).
+    gradients: Vec<SVector<f64, D>>,
+    /// P1: the measure of every cell by the rule (empty for l ≥ 2).
+    measures: Vec<f64>,
+}
+
+impl<const D: usize> DomainQuadrature<D> {
+    /// The simplex rule of `degree` (2l in `simulate`) on the cells of `space`.
+    pub fn new(space: &LagrangeSpace<D>, degree: usize) -> Self {
+        let tabulation =
+            Tabulation::cell_rule(space.element(), &QuadratureRule::<D>::simplex(degree));
+        let (n, points) = (tabulation.nodes, tabulation.len());
+        let cells = space.mesh().num_cells();
+        let reference_measure: f64 = tabulation.weights.iter().sum();
+        let mut weights = Vec::with_capacity(cells * points);
+        let mut node_integrals = vec![0.0; space.num_nodes()];
+        let linear = space.degree() == 1;
+        let mut gradients = Vec::with_capacity(if linear { cells * n } else { 0 });
+        let mut measures = Vec::with_capacity(if linear { cells } else { 0 });
+        for c in 0..cells {
+            let geometry = space.geometry(c);
+            let det = geometry.det.abs();
+            let nodes = space.cell_nodes(c);
+            for q in 0..points {
+                let weight = tabulation.weights[q] * det;
+                weights.push(weight);
+                for (a, &node) in nodes.iter().enumerate() {
+                    node_integrals[node] += weight * tabulation.values[q * n + a];
+                }
+            }
+            if linear {
+                gradients.extend(
+                    tabulation.gradients[..n]
+                        .iter()
+                        .map(|reference| geometry.inverse_transpose * reference),
+                );
+                measures.push(reference_measure * det);
+            }
+        }
+        Self {
+            // Σ_a ∫φ_a, summed as ∫β_h is: a field β ≡ 1 has the mean 1 exactly
+            volume: blocked_sum(
+                node_integrals
+                    .chunks(SUM_BLOCK)
+                    .map(|block| block.iter().sum()),
+            ),
+            convex: tabulation.values.iter().all(|&value| value >= 0.0),
+            tabulation,
+            weights,
+            node_integrals,
+            gradients,
+            measures,
+        }
+    }
+}
+
+/// ∫_Ω β / |Ω| and |{β < 1/2}|, both by the rule of `quadrature`.
+pub fn damage_integrals<const D: usize>(
+    space: &LagrangeSpace<D>,
+    quadrature: &DomainQuadrature<D>,
+    damage: &[f64],
+) -> (f64, f64) {
+    let integral = blocked_sum(
+        quadrature
+            .node_integrals
+            .chunks(SUM_BLOCK)
+            .zip(damage.chunks(SUM_BLOCK))
+            .map(|(weights, betas)| weights.iter().zip(betas).map(|(w, b)| w * b).sum()),
+    );
+    let tabulation = &quadrature.tabulation;
+    let (n, points) = (tabulation.nodes, tabulation.len());
+    let undamaged = |nodes: &[usize]| nodes.iter().all(|&a| damage[a] >= 0.5);
+    let weak_area = if quadrature.convex && damage.iter().all(|&beta| beta >= 0.5) {
+        0.0
+    } else {
+        let [area] = sum_over_cells(space.mesh().num_cells(), |cells| {
+            let mut area = 0.0;
+            for c in cells {
+                let nodes = space.cell_nodes(c);
+                if quadrature.convex && undamaged(nodes) {
+                    continue;
+                }
+                for q in 0..points {
+                    let values = &tabulation.values[q * n..(q + 1) * n];
+                    let beta: f64 = nodes.iter().zip(values).map(|(&a, v)| damage[a] * v).sum();
+                    if beta < 0.5 {
+                        area += quadrature.weights[c * points + q];
+                    }
+                }
+            }
+            [area]
+        });
+        area
+    };
+    (integral / quadrature.volume, weak_area)
+}
+
+/// ∫_Ω 𝒜ε(v)·ε(v) by the rule of `quadrature` (exact for a linear 𝒜 when the rule has
 /// degree ≥ 2(l − 1)). The velocity gradient at a point is Σ_a v_a ⊗ J⁻ᵀ∇̂φ_a with the
 /// reference gradients tabulated once; for l = 1 it is constant on a cell, and so is the
-/// integrand (𝒜 depends on ε only): one evaluation per cell, weighted by the cell's measure.
+/// integrand (𝒜 depends on ε only): one evaluation per cell with the cell's physical
+/// gradients and measure computed once ([`DomainQuadrature`]).
 pub fn viscous_power<const D: usize>(
     setup: &ProblemSetup<D>,
     space: &LagrangeSpace<D>,
-    tabulation: &Tabulation<D>,
+    quadrature: &DomainQuadrature<D>,
     velocity: &[f64],
 ) -> f64 {
     let viscosity = &setup.problem.model.viscosity;
-    let n = tabulation.nodes;
-    // P1: one point (the first; the gradients are the same at all) with the reference measure
-    let reference_measure = [tabulation.weights.iter().sum::<f64>()];
-    let weights: &[f64] = if space.degree() == 1 {
-        &reference_measure
-    } else {
-        &tabulation.weights
-    };
+    let tabulation = &quadrature.tabulation;
+    let (n, points) = (tabulation.nodes, tabulation.len());
+    let nodal =
+        |node: usize| SVector::<f64, D>::from_column_slice(&velocity[node * D..node * D + D]);
     let [power] = sum_over_cells(space.mesh().num_cells(), |cells| {
-        let mut power = 0.0;
-        for c in cells {
-            let geometry = space.geometry(c);
+        // the strain rates of the cells (P1) or points (l ≥ 2) of the range, then one call of
+        // the law for all of them
+        let mut rates = Vec::with_capacity(cells.len() * points);
+        for c in cells.clone() {
             let nodes = space.cell_nodes(c);
-            for (q, weight) in weights.iter().enumerate() {
+            if !quadrature.measures.is_empty() {
+                let gradients = &quadrature.gradients[c * n..(c + 1) * n];
+                let mut gradient = SMatrix::<f64, D, D>::zeros();
+                for (&node, physical) in nodes.iter().zip(gradients) {
+                    gradient += nodal(node) * physical.transpose();
+                }
+                rates.push(strain(&gradient));
+                continue;
+            }
+            let geometry = space.geometry(c);
+            for q in 0..points {
                 // Σ_a v_a ⊗ ∇̂φ_a(ξ_q), then the chain rule ∇v = (Σ_a v_a ⊗ ∇̂φ_a) J⁻¹
                 let mut reference_gradient = SMatrix::<f64, D, D>::zeros();
                 for (a, &node) in nodes.iter().enumerate() {
-                    let v = SVector::<f64, D>::from_column_slice(&velocity[node * D..node * D + D]);
-                    reference_gradient += v * tabulation.gradients[q * n + a].transpose();
+                    reference_gradient += nodal(node) * tabulation.gradients[q * n + a].transpose();
                 }
-                let gradient = reference_gradient * geometry.inverse_transpose.transpose();
-                let rate = strain(&gradient);
-                power += weight * geometry.det.abs() * viscosity.stress(&rate).dot(&rate);
+                rates.push(strain(
+                    &(reference_gradient * geometry.inverse_transpose.transpose()),
+                ));
             }
         }
-        [power]
+        let weights = if quadrature.measures.is_empty() {
+            &quadrature.weights[cells.start * points..cells.end * points]
+        } else {
+            &quadrature.measures[cells]
+        };
+        [viscosity.weighted_power_sum(&rates, weights)]
     });
     power
 }
@@ -458,19 +572,69 @@ pub(crate) mod tests {
         ProblemSetup::<2>::new(file, Path::new("inline.toml")).unwrap()
     }
 
+    /// |{β < 1/2}| point by point over every cell, in cell order (one chunk of cells).
+    fn weak_area_of_every_point(space: &LagrangeSpace<2>, degree: usize, damage: &[f64]) -> f64 {
+        let tabulation =
+            Tabulation::cell_rule(space.element(), &QuadratureRule::<2>::simplex(degree));
+        let n = tabulation.nodes;
+        let mut area = 0.0;
+        for c in 0..space.mesh().num_cells() {
+            let det = space.geometry(c).det.abs();
+            for q in 0..tabulation.len() {
+                let values = &tabulation.values[q * n..(q + 1) * n];
+                let beta: f64 = space
+                    .cell_nodes(c)
+                    .iter()
+                    .zip(values)
+                    .map(|(&a, v)| damage[a] * v)
+                    .sum();
+                if beta < 0.5 {
+                    area += tabulation.weights[q] * det;
+                }
+            }
+        }
+        area
+    }
+
+    #[test]
+    fn weak_area_skips_only_cells_that_cannot_add_to_it() {
+        for degree in [1, 2] {
+            let space = unit_square_space(degree);
+            let quadrature = DomainQuadrature::new(&space, 2 * degree);
+            // nodal values on both sides of 1/2: the skipped cells add nothing, so the area is
+            // bitwise the sum over every point
+            let damage: Vec<f64> = (0..space.num_nodes())
+                .map(|a| ((a * 37 % 23) as f64) / 22.0)
+                .collect();
+            let (_, area) = damage_integrals(&space, &quadrature, &damage);
+            assert!(area > 0.0);
+            assert_eq!(area, weak_area_of_every_point(&space, 2 * degree, &damage));
+        }
+        // P2: vertices at 1 and edge midpoints at 1/2, all nodal values ≥ 1/2, yet β_h = 1/3 at
+        // the centroid of every cell (the P2 basis is negative at interior points): no skip
+        let space = unit_square_space(2);
+        let quadrature = DomainQuadrature::new(&space, 4);
+        let vertices = space.mesh().num_vertices();
+        let damage: Vec<f64> = (0..space.num_nodes())
+            .map(|a| if a < vertices { 1.0 } else { 0.5 })
+            .collect();
+        let (_, area) = damage_integrals(&space, &quadrature, &damage);
+        assert!(area > 0.0);
+        assert_eq!(area, weak_area_of_every_point(&space, 4, &damage));
+    }
+
     #[test]
     fn damage_integrals_are_exact_for_linear_fields() {
         for degree in [1, 2] {
             let space = unit_square_space(degree);
-            let tabulation =
-                Tabulation::cell_rule(space.element(), &QuadratureRule::<2>::simplex(2 * degree));
+            let quadrature = DomainQuadrature::new(&space, 2 * degree);
             // β = 0.2 + 0.3 x + 0.1 y on (0, 1) × (0, 2): mean 0.2 + 0.15 + 0.1
             let damage = space.interpolate_scalar(|x| 0.2 + 0.3 * x[0] + 0.1 * x[1]);
-            let (mean, weak) = damage_integrals(&space, &tabulation, &damage);
+            let (mean, weak) = damage_integrals(&space, &quadrature, &damage);
             assert!((mean - 0.45).abs() < 1e-14, "{mean}");
             assert!(weak > 0.0 && weak < 2.0, "{weak}");
-            let (_, all) = damage_integrals(&space, &tabulation, &vec![0.3; damage.len()]);
-            let (_, none) = damage_integrals(&space, &tabulation, &vec![0.7; damage.len()]);
+            let (_, all) = damage_integrals(&space, &quadrature, &vec![0.3; damage.len()]);
+            let (_, none) = damage_integrals(&space, &quadrature, &vec![0.7; damage.len()]);
             assert!((all - 2.0).abs() < 1e-14 && none == 0.0);
         }
     }
@@ -480,16 +644,15 @@ pub(crate) mod tests {
         let setup = setup();
         for degree in [1, 2] {
             let space = unit_square_space(degree);
-            let tabulation =
-                Tabulation::cell_rule(space.element(), &QuadratureRule::<2>::simplex(2 * degree));
+            let quadrature = DomainQuadrature::new(&space, 2 * degree);
             // ε(v) = [[0, 0.5], [0.5, 0.3]]: 𝒜ε·ε = 2·0.5 ε·ε + 0.25 (tr ε)² = 0.59 + 0.0225
             let velocity = space.interpolate_vector(|x| [x[1], 0.3 * x[1]]);
-            let power = viscous_power(&setup, &space, &tabulation, &velocity);
+            let power = viscous_power(&setup, &space, &quadrature, &velocity);
             let expected = (0.59 + 0.0225) * 2.0;
             assert!((power - expected).abs() < 1e-13, "{power} vs {expected}");
             // a rigid motion dissipates nothing
             let rigid = space.interpolate_vector(|x| [0.3 - x[1], 0.1 + x[0]]);
-            assert!(viscous_power(&setup, &space, &tabulation, &rigid).abs() < 1e-13);
+            assert!(viscous_power(&setup, &space, &quadrature, &rigid).abs() < 1e-13);
         }
     }
 
@@ -497,11 +660,11 @@ pub(crate) mod tests {
     fn viscous_power_is_exact_for_quadratic_velocities_in_p2() {
         let setup = setup();
         let space = unit_square_space(2);
-        let tabulation = Tabulation::cell_rule(space.element(), &QuadratureRule::<2>::simplex(4));
+        let quadrature = DomainQuadrature::new(&space, 4);
         // v = (x y, x²): ε(v) = [[y, 1.5 x], [1.5 x, 0]], 𝒜ε·ε = ε·ε + 0.25 (tr ε)²
         // = 1.25 y² + 4.5 x², whose integral over (0, 1) × (0, 2) is 10/3 + 3
         let velocity = space.interpolate_vector(|x| [x[0] * x[1], x[0] * x[0]]);
-        let power = viscous_power(&setup, &space, &tabulation, &velocity);
+        let power = viscous_power(&setup, &space, &quadrature, &velocity);
         let expected = 10.0 / 3.0 + 3.0;
         assert!((power - expected).abs() < 1e-13, "{power} vs {expected}");
     }

@@ -4,14 +4,13 @@
 //! time the same work.
 
 use crate::history::{
-    contact_integrals, damage_integrals, tangential_speed, viscous_power, ContactStep, HistoryRow,
-    RunningSums,
+    contact_integrals, damage_integrals, tangential_speed, viscous_power, ContactStep,
+    DomainQuadrature, HistoryRow, RunningSums,
 };
 use crate::problem::ProblemSetup;
 use crate::zone::{boundary_penetration, contact_force, contact_zone, ContactZone};
 use contact_damage::contact::ContactNodes;
 use contact_damage::scheme::{ContactTreatment, Simulation, StepOutcome};
-use contact_damage::space::Tabulation;
 
 /// The history row of a step and the per-node tangential speeds it was computed from (the
 /// `slip_rate` column of `contact_history.csv`).
@@ -23,13 +22,13 @@ pub struct StepRecord {
 }
 
 /// The step just done by `simulation` with outcome `outcome`, as a row of `history.csv`;
-/// adds the step's contributions to the running sums `sums`. `tabulation` is the cell rule of
+/// adds the step's contributions to the running sums `sums`. `quadrature` is the cell rule of
 /// the Ω integrals and `axis` the axis of the contact zone's extent.
 pub fn record_step<const D: usize>(
     setup: &ProblemSetup<D>,
     simulation: &Simulation<D>,
     outcome: &StepOutcome,
-    tabulation: &Tabulation<D>,
+    quadrature: &DomainQuadrature<D>,
     axis: usize,
     sums: &mut RunningSums,
 ) -> StepRecord {
@@ -43,7 +42,7 @@ pub fn record_step<const D: usize>(
     let space = simulation.space();
     let contact = simulation.contact();
     let time_step = simulation.time_step();
-    let (mean_damage, area_damage_below_half) = damage_integrals(space, tabulation, &state.damage);
+    let (mean_damage, area_damage_below_half) = damage_integrals(space, quadrature, &state.damage);
     let speed = tangential_speed(contact, &state.velocity);
     let on_contact = contact_integrals(
         contact,
@@ -63,7 +62,7 @@ pub fn record_step<const D: usize>(
         &velocity.multipliers,
     );
     let zone = step_contact_zone(setup, simulation, contact, axis);
-    let viscous_power = viscous_power(setup, space, tabulation, &state.velocity);
+    let viscous_power = viscous_power(setup, space, quadrature, &state.velocity);
     sums.viscous_dissipation += time_step * viscous_power;
     let row = HistoryRow {
         step: state.step,

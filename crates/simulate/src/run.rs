@@ -25,7 +25,8 @@
 
 use crate::folder;
 use crate::history::{
-    history_header, truncate_history, ForceCycle, RunningSums, CYCLE_WINDOW_STEPS, HISTORY_FILE,
+    history_header, truncate_history, DomainQuadrature, ForceCycle, RunningSums,
+    CYCLE_WINDOW_STEPS, HISTORY_FILE,
 };
 use crate::pictures::{
     contact_history_svg, damage_picture_file, damage_svg, picture_steps, pressure_steps,
@@ -38,9 +39,7 @@ use crate::resume::resume;
 pub use crate::resume::{read_saved_state, SavedState};
 pub use crate::snapshot::{cell_stress, contact_file, solution_file};
 use crate::snapshot::{save_step, SavedStep};
-use contact_damage::quadrature::QuadratureRule;
 use contact_damage::scheme::{DamageEvolution, Simulation, StepOutcome};
-use contact_damage::space::Tabulation;
 use contact_damage::stability::StepLimit;
 use contact_input::output::write_atomic;
 use contact_input::InputError;
@@ -248,10 +247,7 @@ pub fn run<const D: usize>(
         .open(&contact_history_path)
         .map_err(io_error("opening", &contact_history_path))?;
 
-    let tabulation = Tabulation::cell_rule(
-        space.element(),
-        &QuadratureRule::<D>::simplex(2 * space.degree()),
-    );
+    let quadrature = DomainQuadrature::new(&space, 2 * space.degree());
     let last_step = options.until_step.unwrap_or(steps).min(steps);
     let clock = Instant::now();
     let mut max_kkt = MaxKkt::default();
@@ -283,7 +279,7 @@ pub fn run<const D: usize>(
             setup,
             &simulation,
             &outcome,
-            &tabulation,
+            &quadrature,
             contact_line.axis,
             &mut sums,
         );
