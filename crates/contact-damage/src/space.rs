@@ -298,14 +298,12 @@ impl<const D: usize> LagrangeSpace<D> {
         let mut grads = [[0.0; D]; crate::element::MAX_CELL_NODES];
         self.element.values(xi, &mut values[..n]);
         self.element.gradients(xi, &mut grads[..n]);
-        let geom = &self.geometry[c];
-        let mut value = 0.0;
-        let mut grad_ref = SVector::<f64, D>::zeros();
-        for (a, &node) in self.cell_nodes(c).iter().enumerate() {
-            value += values[a] * nodal[node];
-            grad_ref += SVector::<f64, D>::from_column_slice(&grads[a]) * nodal[node];
-        }
-        (value, geom.inverse_transpose * grad_ref)
+        self.scalar_from_basis(
+            c,
+            &values[..n],
+            |a| SVector::from_column_slice(&grads[a]),
+            nodal,
+        )
     }
 
     /// Value and gradient (∂u_i/∂x_j at (i, j)) at reference point ξ of cell c of the vector field
@@ -321,11 +319,73 @@ impl<const D: usize> LagrangeSpace<D> {
         let mut grads = [[0.0; D]; crate::element::MAX_CELL_NODES];
         self.element.values(xi, &mut values[..n]);
         self.element.gradients(xi, &mut grads[..n]);
+        self.vector_from_basis(
+            c,
+            &values[..n],
+            |a| SVector::from_column_slice(&grads[a]),
+            nodal,
+        )
+    }
+
+    /// [`LagrangeSpace::eval_scalar`] at point q of `tabulation` (the basis tabulated once for
+    /// all cells, e.g. at the centroid): bitwise the same value and gradient.
+    pub fn eval_scalar_tabulated(
+        &self,
+        c: usize,
+        tabulation: &Tabulation<D>,
+        q: usize,
+        nodal: &[f64],
+    ) -> (f64, SVector<f64, D>) {
+        let n = tabulation.nodes;
+        let values = &tabulation.values[q * n..(q + 1) * n];
+        self.scalar_from_basis(c, values, |a| tabulation.gradients[q * n + a], nodal)
+    }
+
+    /// [`LagrangeSpace::eval_vector`] at point q of `tabulation` (the basis tabulated once for
+    /// all cells): bitwise the same value and gradient.
+    pub fn eval_vector_tabulated(
+        &self,
+        c: usize,
+        tabulation: &Tabulation<D>,
+        q: usize,
+        nodal: &[f64],
+    ) -> (SVector<f64, D>, SMatrix<f64, D, D>) {
+        let n = tabulation.nodes;
+        let values = &tabulation.values[q * n..(q + 1) * n];
+        self.vector_from_basis(c, values, |a| tabulation.gradients[q * n + a], nodal)
+    }
+
+    /// A scalar field on cell c from the basis values and reference gradients at a point.
+    fn scalar_from_basis(
+        &self,
+        c: usize,
+        values: &[f64],
+        reference_gradient: impl Fn(usize) -> SVector<f64, D>,
+        nodal: &[f64],
+    ) -> (f64, SVector<f64, D>) {
+        let geom = &self.geometry[c];
+        let mut value = 0.0;
+        let mut grad_ref = SVector::<f64, D>::zeros();
+        for (a, &node) in self.cell_nodes(c).iter().enumerate() {
+            value += values[a] * nodal[node];
+            grad_ref += reference_gradient(a) * nodal[node];
+        }
+        (value, geom.inverse_transpose * grad_ref)
+    }
+
+    /// A vector field on cell c from the basis values and reference gradients at a point.
+    fn vector_from_basis(
+        &self,
+        c: usize,
+        values: &[f64],
+        reference_gradient: impl Fn(usize) -> SVector<f64, D>,
+        nodal: &[f64],
+    ) -> (SVector<f64, D>, SMatrix<f64, D, D>) {
         let geom = &self.geometry[c];
         let mut value = SVector::<f64, D>::zeros();
         let mut grad = SMatrix::<f64, D, D>::zeros();
         for (a, &node) in self.cell_nodes(c).iter().enumerate() {
-            let physical = geom.inverse_transpose * SVector::<f64, D>::from_column_slice(&grads[a]);
+            let physical = geom.inverse_transpose * reference_gradient(a);
             let u = SVector::<f64, D>::from_column_slice(&nodal[node * D..node * D + D]);
             value += u * values[a];
             grad += u * physical.transpose();
@@ -393,6 +453,30 @@ mod tests {
             }
         }
         assert_eq!(space3.nodes_per_facet(), 6);
+    }
+
+    #[test]
+    fn tabulated_evaluation_is_bitwise_the_evaluation_at_the_point() {
+        let points = vec![[1.0 / 3.0, 1.0 / 3.0], [0.1, 0.7], [0.0, 0.0]];
+        for degree in [1, 2] {
+            let space = LagrangeSpace::new(square(3), degree).unwrap();
+            let tabulation = Tabulation::new(space.element(), points.clone(), vec![1.0; 3]);
+            let scalar = space.interpolate_scalar(|x| (3.0 * x[0]).sin() + x[1] * x[1] / 7.0);
+            let vector = space.interpolate_vector(|x| [x[0] * x[1] - 0.3, (x[0] + 2.0).ln()]);
+            for c in 0..space.mesh().num_cells() {
+                for (q, xi) in points.iter().enumerate() {
+                    let (value, gradient) = space.eval_scalar(c, xi, &scalar);
+                    let (tab_value, tab_gradient) =
+                        space.eval_scalar_tabulated(c, &tabulation, q, &scalar);
+                    assert_eq!(value.to_bits(), tab_value.to_bits());
+                    assert_eq!(gradient, tab_gradient);
+                    assert_eq!(
+                        space.eval_vector(c, xi, &vector),
+                        space.eval_vector_tabulated(c, &tabulation, q, &vector)
+                    );
+                }
+            }
+        }
     }
 
     #[test]

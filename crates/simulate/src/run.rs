@@ -41,6 +41,7 @@ pub use crate::snapshot::{cell_stress, contact_file, solution_file};
 use crate::snapshot::{save_step, SavedStep};
 use contact_damage::scheme::{DamageEvolution, Simulation, StepOutcome};
 use contact_damage::stability::StepLimit;
+use contact_damage::vtk::VtuGrid;
 use contact_input::output::write_atomic;
 use contact_input::InputError;
 use std::fs::OpenOptions;
@@ -248,6 +249,7 @@ pub fn run<const D: usize>(
         .map_err(io_error("opening", &contact_history_path))?;
 
     let quadrature = DomainQuadrature::new(&space, 2 * space.degree());
+    let grid = VtuGrid::new(&space, setup.vtu)?;
     let last_step = options.until_step.unwrap_or(steps).min(steps);
     let clock = Instant::now();
     let mut max_kkt = MaxKkt::default();
@@ -343,6 +345,7 @@ pub fn run<const D: usize>(
                 &SavedStep {
                     setup,
                     space: &space,
+                    grid: &grid,
                     contact: &contact,
                     state,
                     velocity,

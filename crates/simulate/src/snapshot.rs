@@ -9,9 +9,11 @@ use contact_damage::contact::{ContactNodes, ContactStatus};
 use contact_damage::laws::Tensor;
 use contact_damage::mesh::BoundaryPart;
 use contact_damage::scheme::State;
-use contact_damage::space::{strain, LagrangeSpace};
+use contact_damage::space::{strain, LagrangeSpace, Tabulation};
 use contact_damage::velocity::VelocitySolution;
-use contact_damage::vtk::{write_boundary_vtu, write_pvd, write_vtu, CellData, PointData};
+use contact_damage::vtk::{
+    write_boundary_vtu, write_pvd, write_vtu_on_grid, CellData, PointData, VtuGrid,
+};
 use contact_input::output::write_json_compact_atomic;
 use contact_input::InputError;
 use std::path::Path;
@@ -33,13 +35,19 @@ pub fn cell_stress<const D: usize>(
     state: &State,
 ) -> Vec<f64> {
     let model = &setup.problem.model;
-    let centroid = [1.0 / (D as f64 + 1.0); D];
+    // the basis at the centroid, tabulated once for all cells
+    let centroid = Tabulation::new(
+        space.element(),
+        vec![[1.0 / (D as f64 + 1.0); D]],
+        vec![1.0],
+    );
     let cells = space.mesh().num_cells();
     let mut stress = Vec::with_capacity(cells * D * D);
     for c in 0..cells {
-        let (_, velocity_gradient) = space.eval_vector(c, &centroid, &state.velocity);
-        let (_, displacement_gradient) = space.eval_vector(c, &centroid, &state.displacement);
-        let (damage, _) = space.eval_scalar(c, &centroid, &state.damage);
+        let (_, velocity_gradient) = space.eval_vector_tabulated(c, &centroid, 0, &state.velocity);
+        let (_, displacement_gradient) =
+            space.eval_vector_tabulated(c, &centroid, 0, &state.displacement);
+        let (damage, _) = space.eval_scalar_tabulated(c, &centroid, 0, &state.damage);
         let sigma: Tensor<D> = model.viscosity.stress(&strain(&velocity_gradient))
             + model
                 .elasticity
@@ -60,6 +68,8 @@ pub(crate) struct SavedStep<'a, const D: usize> {
     pub setup: &'a ProblemSetup<D>,
     /// The space of the fields.
     pub space: &'a LagrangeSpace<D>,
+    /// The points and cells of the space's `.vtu` files, encoded once per run.
+    pub grid: &'a VtuGrid,
     /// The contact nodes of Γ3 with their frames.
     pub contact: &'a ContactNodes<D>,
     /// The state after step n.
@@ -88,6 +98,7 @@ pub(crate) fn save_step<const D: usize>(
     let &SavedStep {
         setup,
         space,
+        grid,
         contact,
         state,
         velocity,
@@ -121,9 +132,10 @@ pub(crate) fn save_step<const D: usize>(
         }
     }
     let stress = cell_stress(setup, space, state);
-    write_vtu(
+    write_vtu_on_grid(
         &dir.join(solution_file(n)),
         space,
+        grid,
         &[
             PointData::Vector {
                 name: "displacement",
@@ -142,7 +154,6 @@ pub(crate) fn save_step<const D: usize>(
             name: "stress",
             values: &stress,
         }],
-        setup.vtu,
     )?;
     write_boundary_vtu(
         &dir.join(contact_file(n)),
