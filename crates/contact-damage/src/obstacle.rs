@@ -142,18 +142,19 @@
 //! of `examples/common/moving_damage.rs`). The projected Newton direction of step 3 is computed
 //! by the same CG from zero (a descent direction at any iteration).
 //!
-//! The factor is chosen by faer's own rule by default ([`FactorKind::Auto`]: supernodal when
-//! the flops per factor entry are high, i.e. in 3D and on the finer 2D meshes). It is computed
-//! once per run and solved with a few times per step. Measured on the P1 damage matrices of
-//! `reports/benchmark_step.md` (factorization / one solve, ms, simplicial against supernodal,
-//! the supernodal solve by the solver's own sweeps, `crate::triangular`): 2D 128² 20.6 / 0.92
-//! against 11.0 / 0.99 (the rule picks simplicial), 256² 146 / 3.85 against 38.7 / 3.97,
-//! 512² 1279 / 19.2 against 253 / 20.4, 3D 16³ 78 / 0.96 against 10.0 / 0.53, 3D 32³
-//! 18 945 / 31.0 against 744 / 34.2. In 3D the supernodal factor wins (18 s less
-//! factorization at 32³ for about 0.9 s more solving over 128 steps of two solves); in 2D
-//! the cheaper factorization and the slightly slower solves about cancel (at 512², about 25
-//! solves per step: 1.0 s less factorization, about 3.8 s more solving over 128 steps, 2 % of
-//! the run), so one rule for both is faer's.
+//! The factor is simplicial by default ([`FactorKind::Simplicial`]); it is computed once per
+//! run and solved with a few times per step. Measured on the P1 damage matrices of
+//! `reports/benchmark_step.md` (factorization / one warm solve, ms, simplicial against
+//! supernodal, the supernodal solve by the solver's own sweeps, `crate::triangular`): 2D 128²
+//! 20.6 / 0.92 against 11.0 / 0.99, 256² 146 / 3.85 against 38.7 / 3.97, 512² 1279 / 19.2
+//! against 253 / 20.4, 3D 16³ 78 / 0.96 against 10.0 / 0.53, 32³ 18 945 / 31.0 against 744 /
+//! 34.2. In 2D the solves decide: inside the conjugate gradients of a step, with the factor
+//! cold, the supernodal one was slower (the damage step at 256², two interleaved pairs: 94 / 115
+//! ms simplicial against 127 / 120 ms supernodal; at 512² within the noise, 1033 / 1104 against
+//! 1215 / 1082 ms), for 0.1 s of factorization saved once. In 3D the supernodal factor saves
+//! most of the factorization (18.9 → 0.7 s at 32³) and `simulate` chooses it for 3D problems
+//! (`block_3d.toml` with 32 × 16 × 16 cells, `damage_method = "active-set"`, two interleaved
+//! pairs: 11.2 / 12.6 → 10.3 / 10.9 s).
 //!
 //! # References
 //! - C. Gräser, R. Kornhuber, *Multigrid methods for obstacle problems*, J. Comput. Math. 27
@@ -190,7 +191,7 @@ pub struct BoxQpSettings {
     /// (default 100). The active set phase may use at most half of them.
     pub max_iterations: usize,
     /// Simplicial or supernodal Cholesky factor of `A` for [`BoxQpMethod::ActiveSet`]
-    /// (default [`FactorKind::Auto`], faer's rule; see the module documentation).
+    /// (default [`FactorKind::Simplicial`]; see the module documentation).
     pub factorization: FactorKind,
     /// The algorithm (default [`BoxQpMethod::MonotoneMultigrid`]).
     pub method: BoxQpMethod,
@@ -214,7 +215,7 @@ impl Default for BoxQpSettings {
         Self {
             tolerance: 1e-12,
             max_iterations: 100,
-            factorization: FactorKind::Auto,
+            factorization: FactorKind::Simplicial,
             method: BoxQpMethod::MonotoneMultigrid,
         }
     }
