@@ -515,8 +515,8 @@ fn render(
          columns and faer's dense kernels over the wider ones, since session 17); \
          *auto* = faer's own choice (flop-ratio rule). The velocity operator uses it (supernodal; the trailing block \
          of the supernodal factor is the condensed operator of (5.1)); the damage box QP needs no factor with the \
-         default monotone multigrid, and the simplicial one (`BoxQpSettings::factorization`, factorized once per run) \
-         with the active set method.\n"
+         default monotone multigrid, and with the active set method one factor per run: simplicial in 2D, \
+         supernodal in 3D (`simulate`'s choice of `BoxQpSettings::factorization`, since session 18).\n"
     );
     let _ = writeln!(
         out,
