@@ -148,10 +148,10 @@
 //! supernodal, the supernodal solve by the solver's own sweeps, `crate::triangular`): 2D 128²
 //! 20.6 / 0.92 against 11.0 / 0.99, 256² 146 / 3.85 against 38.7 / 3.97, 512² 1279 / 19.2
 //! against 253 / 20.4, 3D 16³ 78 / 0.96 against 10.0 / 0.53, 32³ 18 945 / 31.0 against 744 /
-//! 34.2. In 2D the solves decide: inside the conjugate gradients of a step, with the factor
-//! cold, the supernodal one was slower (the damage step at 256², two interleaved pairs: 94 / 115
-//! ms simplicial against 127 / 120 ms supernodal; at 512² within the noise, 1033 / 1104 against
-//! 1215 / 1082 ms), for 0.1 s of factorization saved once. In 3D the supernodal factor saves
+//! 34.2. In 2D the solves decide, and the damage steps with either factor were within the
+//! noise of the shared machine (at 256², interleaved pairs: 94 / 115 ms per step simplicial
+//! against 127 / 120 ms supernodal, and the reverse, 127 against 94 ms, in two runs of
+//! `bench_step`), so the default stays simplicial. In 3D the supernodal factor saves
 //! most of the factorization (18.9 → 0.7 s at 32³) and `simulate` chooses it for 3D problems
 //! (`block_3d.toml` with 32 × 16 × 16 cells, `damage_method = "active-set"`, two interleaved
 //! pairs: 11.2 / 12.6 → 10.3 / 10.9 s).
