@@ -1392,24 +1392,44 @@ mod tests {
     }
 
     #[test]
-    fn a_grid_encoded_once_writes_the_file_of_write_vtu() {
+    fn one_grid_serves_many_files_and_only_its_own_space() {
         let directory = scratch("grid-once");
         let sides = [[Dirichlet, Neumann], [Contact, Neumann]];
         let mesh = Arc::new(Mesh::<2>::box_mesh([0.0, 0.0], [1.0, 0.3], [3, 2], sides).unwrap());
         for degree in [1, 2] {
             let space = LagrangeSpace::new(mesh.clone(), degree).unwrap();
-            let damage: Vec<f64> = (0..space.num_nodes()).map(|n| n as f64 / 7.0).collect();
-            let points = [PointData::Scalar {
-                name: "damage",
-                values: &damage,
-            }];
             for encoding in [VtuEncoding::Ascii, VtuEncoding::Binary] {
                 let grid = VtuGrid::new(&space, encoding).unwrap();
                 assert_eq!(grid.encoding(), encoding);
-                let (once, each) = (directory.join("once.vtu"), directory.join("each.vtu"));
-                write_vtu_on_grid(&once, &space, &grid, &points, &[]).unwrap();
-                write_vtu(&each, &space, &points, &[], encoding).unwrap();
-                assert_eq!(fs::read(&once).unwrap(), fs::read(&each).unwrap());
+                // two snapshots on the same grid: each holds its own field and the same cells
+                let mut read = Vec::new();
+                for snapshot in 0..2 {
+                    let damage: Vec<f64> = (0..space.num_nodes())
+                        .map(|n| (n + snapshot) as f64 / 7.0)
+                        .collect();
+                    let points = [PointData::Scalar {
+                        name: "damage",
+                        values: &damage,
+                    }];
+                    let path = directory.join(format!("snapshot{snapshot}.vtu"));
+                    write_vtu_on_grid(&path, &space, &grid, &points, &[]).unwrap();
+                    let vtu = Vtu::read(&path);
+                    assert_eq!(vtu.field("PointData", "damage").1, damage);
+                    assert_eq!(
+                        (vtu.points, vtu.cells),
+                        (space.num_nodes(), mesh.num_cells())
+                    );
+                    for c in 0..mesh.num_cells() {
+                        let mut written = vtu.cell(c).to_vec();
+                        let mut own = space.cell_nodes(c).to_vec();
+                        written.sort_unstable();
+                        own.sort_unstable();
+                        assert_eq!(written, own, "cell {c}");
+                    }
+                    read.push(vtu);
+                }
+                assert_eq!(read[0].connectivity, read[1].connectivity);
+                assert_eq!(read[0].coordinates, read[1].coordinates);
             }
         }
         // the grid of another space is refused before any file is written

@@ -323,15 +323,22 @@ fn sum_over_cells<const N: usize>(
 /// Terms per partial sum of [`blocked_sum`].
 const SUM_BLOCK: usize = 1024;
 
-/// The sum of the partial sums of consecutive blocks of [`SUM_BLOCK`] terms: a sum of n terms of
-/// one sign then errs by about SUM_BLOCK + n/SUM_BLOCK roundings instead of n. A mesh of
-/// equal cells adds the same weight 10⁵ times: at the last step of the 128² run of
-/// `bench_run`, the mean damage Σ_a β_a ∫φ_a / |Ω| (with |Ω| the sum of the point weights)
-/// erred by 1.5e-12 relative with one running sum and by 5e-15 in blocks; with |Ω| = Σ_a ∫φ_a
-/// in blocks by 3e-16 (against the exact rational sums of the same nodal values; the cell
-/// sums before session 18: 1.8e-13).
-fn blocked_sum(partial_sums: impl Iterator<Item = f64>) -> f64 {
-    partial_sums.sum()
+/// Σ_{i < len} term(i) as the sum of the partial sums of consecutive blocks of [`SUM_BLOCK`]
+/// terms: a sum of n terms of one sign then errs by about SUM_BLOCK + n/SUM_BLOCK roundings
+/// instead of n. A mesh of equal cells adds the same weight 10⁵ times: at the last step of the
+/// 128² run of `bench_run`, the mean damage Σ_a β_a ∫φ_a / |Ω| (with |Ω| the sum of the point
+/// weights) erred by 1.5e-12 relative with one running sum and by 5e-15 in blocks; with
+/// |Ω| = Σ_a ∫φ_a in blocks by 3e-16 (against the exact rational sums of the same nodal values;
+/// the cell sums before session 18: 1.8e-13).
+fn blocked_sum(len: usize, term: impl Fn(usize) -> f64) -> f64 {
+    (0..len)
+        .step_by(SUM_BLOCK)
+        .map(|start| {
+            (start..(start + SUM_BLOCK).min(len))
+                .map(&term)
+                .sum::<f64>()
+        })
+        .sum()
 }
 
 /// The quadrature rule of the integrals over Ω in `history.csv`, with what does not change
@@ -393,11 +400,7 @@ impl<const D: usize> DomainQuadrature<D> {
         }
         Self {
             // Σ_a ∫φ_a, summed as ∫β_h is: a field β ≡ 1 has the mean 1 exactly
-            volume: blocked_sum(
-                node_integrals
-                    .chunks(SUM_BLOCK)
-                    .map(|block| block.iter().sum()),
-            ),
+            volume: blocked_sum(node_integrals.len(), |a| node_integrals[a]),
             convex: tabulation.values.iter().all(|&value| value >= 0.0),
             tabulation,
             weights,
@@ -414,13 +417,8 @@ pub fn damage_integrals<const D: usize>(
     quadrature: &DomainQuadrature<D>,
     damage: &[f64],
 ) -> (f64, f64) {
-    let integral = blocked_sum(
-        quadrature
-            .node_integrals
-            .chunks(SUM_BLOCK)
-            .zip(damage.chunks(SUM_BLOCK))
-            .map(|(weights, betas)| weights.iter().zip(betas).map(|(w, b)| w * b).sum()),
-    );
+    let node_integrals = &quadrature.node_integrals;
+    let integral = blocked_sum(node_integrals.len(), |a| node_integrals[a] * damage[a]);
     let tabulation = &quadrature.tabulation;
     let (n, points) = (tabulation.nodes, tabulation.len());
     let undamaged = |nodes: &[usize]| nodes.iter().all(|&a| damage[a] >= 0.5);
@@ -465,37 +463,41 @@ pub fn viscous_power<const D: usize>(
     let (n, points) = (tabulation.nodes, tabulation.len());
     let nodal =
         |node: usize| SVector::<f64, D>::from_column_slice(&velocity[node * D..node * D + D]);
+    // P1: the cells' gradients and measures were computed once
+    let p1 = !quadrature.measures.is_empty();
     let [power] = sum_over_cells(space.mesh().num_cells(), |cells| {
         // the strain rates of the cells (P1) or points (l ≥ 2) of the range, then one call of
         // the law for all of them
         let mut rates = Vec::with_capacity(cells.len() * points);
-        for c in cells.clone() {
-            let nodes = space.cell_nodes(c);
-            if !quadrature.measures.is_empty() {
+        if p1 {
+            for c in cells.clone() {
                 let gradients = &quadrature.gradients[c * n..(c + 1) * n];
                 let mut gradient = SMatrix::<f64, D, D>::zeros();
-                for (&node, physical) in nodes.iter().zip(gradients) {
+                for (&node, physical) in space.cell_nodes(c).iter().zip(gradients) {
                     gradient += nodal(node) * physical.transpose();
                 }
                 rates.push(strain(&gradient));
-                continue;
             }
-            let geometry = space.geometry(c);
-            for q in 0..points {
-                // Σ_a v_a ⊗ ∇̂φ_a(ξ_q), then the chain rule ∇v = (Σ_a v_a ⊗ ∇̂φ_a) J⁻¹
-                let mut reference_gradient = SMatrix::<f64, D, D>::zeros();
-                for (a, &node) in nodes.iter().enumerate() {
-                    reference_gradient += nodal(node) * tabulation.gradients[q * n + a].transpose();
+        } else {
+            for c in cells.clone() {
+                let (geometry, nodes) = (space.geometry(c), space.cell_nodes(c));
+                for q in 0..points {
+                    // Σ_a v_a ⊗ ∇̂φ_a(ξ_q), then the chain rule ∇v = (Σ_a v_a ⊗ ∇̂φ_a) J⁻¹
+                    let mut reference_gradient = SMatrix::<f64, D, D>::zeros();
+                    for (a, &node) in nodes.iter().enumerate() {
+                        reference_gradient +=
+                            nodal(node) * tabulation.gradients[q * n + a].transpose();
+                    }
+                    rates.push(strain(
+                        &(reference_gradient * geometry.inverse_transpose.transpose()),
+                    ));
                 }
-                rates.push(strain(
-                    &(reference_gradient * geometry.inverse_transpose.transpose()),
-                ));
             }
         }
-        let weights = if quadrature.measures.is_empty() {
-            &quadrature.weights[cells.start * points..cells.end * points]
-        } else {
+        let weights = if p1 {
             &quadrature.measures[cells]
+        } else {
+            &quadrature.weights[cells.start * points..cells.end * points]
         };
         [viscosity.weighted_power_sum(&rates, weights)]
     });
