@@ -1687,10 +1687,11 @@ mod tests {
             for count in [points.len(), split::BATCH.min(points.len())] {
                 let columns = point_columns(&points, count);
                 let inputs: Vec<&[f64]> = columns.iter().map(|c| c.as_slice()).collect();
+                let inputs = batch::Inputs::new(&inputs, &[], count);
                 let mut baseline = vec![0.0; program.len() * count];
-                program.eval_columns(&inputs, &[], count, &mut baseline, true);
+                program.eval_columns(&inputs, count, &mut baseline, true);
                 let mut dispatched = vec![0.0; program.len() * count];
-                program.eval_batch_columns(&inputs, &[], count, &mut dispatched, true);
+                program.eval_batch_columns(&inputs, count, &mut dispatched, true);
                 // NaN as one value: which operand's NaN payload (or sign) a product of two
                 // NaNs keeps depends on the instruction's operand order, which the compiler
                 // may swap; every other value bit for bit.

@@ -35,16 +35,17 @@ impl Program {
         count: usize,
         registers: &mut Vec<f64>,
     ) {
-        self.eval_batch_columns(inputs, block, count, registers, true)
+        let columns = Inputs::new(inputs, block, count);
+        self.eval_batch_columns(&columns, count, registers, true)
     }
 
-    /// [`Program::eval_batch_with_block`]; with `copy_output_variables` false the registers of
-    /// outputs that are variables are left unwritten, for a caller that reads those outputs
-    /// from their input columns (`super::split::BatchOutputs`).
+    /// [`Program::eval_batch_with_block`] on the variables `inputs`; with
+    /// `copy_output_variables` false the registers of outputs that are variables are left
+    /// unwritten, for a caller that reads those outputs from their input columns
+    /// (`super::split::BatchOutputs`).
     pub(super) fn eval_batch_columns(
         &self,
-        inputs: &[&[f64]],
-        block: &[f64],
+        inputs: &Inputs<'_>,
         count: usize,
         registers: &mut Vec<f64>,
         copy_output_variables: bool,
@@ -53,10 +54,10 @@ impl Program {
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the processor has AVX2 (checked just above).
             return unsafe {
-                self.eval_columns_avx2(inputs, block, count, registers, copy_output_variables)
+                self.eval_columns_avx2(inputs, count, registers, copy_output_variables)
             };
         }
-        self.eval_columns(inputs, block, count, registers, copy_output_variables)
+        self.eval_columns(inputs, count, registers, copy_output_variables)
     }
 
     /// [`Program::eval_batch_columns`] compiled for AVX2: the loops over a column take four
@@ -70,33 +71,31 @@ impl Program {
     #[target_feature(enable = "avx2")]
     unsafe fn eval_columns_avx2(
         &self,
-        inputs: &[&[f64]],
-        block: &[f64],
+        inputs: &Inputs<'_>,
         count: usize,
         registers: &mut Vec<f64>,
         copy_output_variables: bool,
     ) {
-        self.eval_columns(inputs, block, count, registers, copy_output_variables)
+        self.eval_columns(inputs, count, registers, copy_output_variables)
     }
 
     /// [`Program::eval_batch_columns`] for the target features of its caller.
     #[inline(always)]
     pub(super) fn eval_columns(
         &self,
-        inputs: &[&[f64]],
-        block: &[f64],
+        inputs: &Inputs<'_>,
         count: usize,
         registers: &mut Vec<f64>,
         copy_output_variables: bool,
     ) {
-        let direct = inputs.len();
         assert_eq!(
-            direct * count + block.len(),
-            self.variables * count,
+            inputs.variables(),
+            self.variables,
             "Program::eval_batch: variables"
         );
         assert!(
-            inputs.iter().all(|column| column.len() == count),
+            inputs.direct.iter().all(|column| column.len() == count)
+                && inputs.uniform_stride >= count,
             "Program::eval_batch: every input column has `count` values"
         );
         // Every register is written before it is read: grow, never clear.
@@ -110,11 +109,9 @@ impl Program {
             // Functions rather than closures: a closure is compiled on its own, without the
             // caller's target features, and was not inlined into the AVX2 loop (12% of the
             // evaluation in `bench_programs`).
-            let column = |slot: usize| input_column(inputs, block, direct, count, slot);
+            let column = |slot: usize| inputs.column(slot, count);
             let instructions = &self.instructions;
-            let r = |register: u32| {
-                operand_column(instructions, inputs, block, done, direct, count, register)
-            };
+            let r = |register: u32| operand_column(instructions, inputs, done, count, register);
             match *instruction {
                 Instruction::Constant(bits) => out.fill(f64::from_bits(bits)),
                 Instruction::Variable(slot) => {
@@ -205,18 +202,48 @@ impl Program {
     }
 }
 
-/// The column of variable `slot`: one of the direct `inputs`, or a column of `block` after them.
-#[inline(always)]
-fn input_column<'c>(
-    inputs: &[&'c [f64]],
-    block: &'c [f64],
-    direct: usize,
-    count: usize,
-    slot: usize,
-) -> &'c [f64] {
-    match slot.checked_sub(direct) {
-        None => inputs[slot],
-        Some(k) => &block[k * count..][..count],
+/// The columns of a program's variables at the points of a batch, in the order of the
+/// variables: the direct columns (`count` values each), then the columns of `block` (`count`
+/// values each, one after the other: the cached frontier of a [`super::SplitProgram`]), then
+/// the uniform columns (`uniform_stride` values each, of which the first `count` are read:
+/// the time-only values of a [`super::SplitProgram`], the same at every point).
+#[derive(Clone, Copy)]
+pub(super) struct Inputs<'c> {
+    pub(super) direct: &'c [&'c [f64]],
+    pub(super) block: &'c [f64],
+    /// Columns in `block`.
+    pub(super) block_columns: usize,
+    pub(super) uniforms: &'c [f64],
+    pub(super) uniform_stride: usize,
+}
+
+impl<'c> Inputs<'c> {
+    /// The direct columns and the block of `count`-value columns after them; no uniforms.
+    pub(super) fn new(direct: &'c [&'c [f64]], block: &'c [f64], count: usize) -> Inputs<'c> {
+        Inputs {
+            direct,
+            block,
+            block_columns: block.len().checked_div(count).unwrap_or(0),
+            uniforms: &[],
+            uniform_stride: count.max(1),
+        }
+    }
+
+    /// Number of variables the columns hold.
+    fn variables(&self) -> usize {
+        self.direct.len() + self.block_columns + self.uniforms.len() / self.uniform_stride
+    }
+
+    /// The column of variable `slot`.
+    #[inline(always)]
+    pub(super) fn column(&self, slot: usize, count: usize) -> &'c [f64] {
+        let Some(k) = slot.checked_sub(self.direct.len()) else {
+            return self.direct[slot];
+        };
+        match k.checked_sub(self.block_columns) {
+            None => &self.block[k * count..][..count],
+            Some(u) => &self.uniforms[u * self.uniform_stride..][..count],
+        }
     }
 }
 
@@ -224,15 +251,13 @@ fn input_column<'c>(
 #[inline(always)]
 fn operand_column<'c>(
     instructions: &[Instruction],
-    inputs: &[&'c [f64]],
-    block: &'c [f64],
+    inputs: &Inputs<'c>,
     done: &'c [f64],
-    direct: usize,
     count: usize,
     register: u32,
 ) -> &'c [f64] {
     match instructions[register as usize] {
-        Instruction::Variable(slot) => input_column(inputs, block, direct, count, slot),
+        Instruction::Variable(slot) => inputs.column(slot, count),
         _ => &done[register as usize * count..][..count],
     }
 }
