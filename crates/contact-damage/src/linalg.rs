@@ -21,8 +21,9 @@ use std::sync::Arc;
 /// are summed into it. Entries whose row or column is negative are dropped (eliminated dofs).
 ///
 /// Expensive analysis once, cheap reuse: [`SparsityPattern::from_pairs`] sorts the (row, column)
-/// pairs of all element entries once (in parallel); [`SparsityPattern::matrix`] then sums the
-/// element values into the compressed columns with a parallel gather, without sorting.
+/// pairs of all element entries once (a counting sort: two passes over the entries);
+/// [`SparsityPattern::matrix`] then sums the element values into the compressed columns with a
+/// parallel gather, without sorting.
 #[derive(Debug, Clone)]
 pub struct SparsityPattern {
     size: usize,
@@ -31,6 +32,23 @@ pub struct SparsityPattern {
     /// sources[starts[k]..starts[k + 1]]: the element values summed into stored entry k.
     starts: Vec<usize>,
     sources: Vec<u32>,
+}
+
+/// The values of `(key, value)` items with keys below `keys`, stably sorted by key.
+fn counting_sort(keys: usize, items: impl Iterator<Item = (usize, u32)> + Clone) -> Vec<u32> {
+    let mut next = vec![0usize; keys + 1];
+    for (key, _) in items.clone() {
+        next[key + 1] += 1;
+    }
+    for key in 0..keys {
+        next[key + 1] += next[key];
+    }
+    let mut sorted = vec![0u32; next[keys]];
+    for (key, value) in items {
+        sorted[next[key]] = value;
+        next[key] += 1;
+    }
+    sorted
 }
 
 impl SparsityPattern {
@@ -52,27 +70,37 @@ impl SparsityPattern {
                 bad.row, bad.col
             )));
         }
-        let mut keyed: Vec<(u64, u32)> = pairs
-            .par_iter()
-            .enumerate()
-            .filter(|(_, p)| p.row >= 0 && p.col >= 0)
-            .map(|(i, p)| (p.col as u64 * size as u64 + p.row as u64, i as u32))
-            .collect();
-        keyed.par_sort_unstable();
+        // The entries in the order of (column, row), those of one position in the order of
+        // `pairs`: a counting sort by row, then a stable counting sort by column (two passes
+        // over the entries, against a comparison sort of them all).
+        let kept = |p: &Pair<isize, isize>| p.row >= 0 && p.col >= 0;
+        let by_row = counting_sort(
+            size,
+            pairs
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| kept(p))
+                .map(|(i, p)| (p.row as usize, i as u32)),
+        );
+        let sources = counting_sort(
+            size,
+            by_row.iter().map(|&i| (pairs[i as usize].col as usize, i)),
+        );
         let mut col_ptr = vec![0usize; size + 1];
         let mut row_idx = Vec::new();
         let mut starts = Vec::new();
-        let mut previous = u64::MAX;
-        for (position, &(key, _)) in keyed.iter().enumerate() {
-            if key != previous {
-                let col = (key / size as u64) as usize;
-                row_idx.push((key % size as u64) as usize);
+        let mut previous = None;
+        for (position, &i) in sources.iter().enumerate() {
+            let pair = &pairs[i as usize];
+            let entry = (pair.col as usize, pair.row as usize);
+            if Some(entry) != previous {
+                row_idx.push(entry.1);
                 starts.push(position);
-                col_ptr[col + 1] += 1;
-                previous = key;
+                col_ptr[entry.0 + 1] += 1;
+                previous = Some(entry);
             }
         }
-        starts.push(keyed.len());
+        starts.push(sources.len());
         for col in 0..size {
             col_ptr[col + 1] += col_ptr[col];
         }
@@ -83,7 +111,7 @@ impl SparsityPattern {
             value_count: pairs.len(),
             symbolic,
             starts,
-            sources: keyed.into_iter().map(|(_, i)| i).collect(),
+            sources,
         })
     }
 
@@ -573,6 +601,53 @@ mod tests {
         solver.factorize(&matrix).unwrap();
         let y = solver.solve(&[2.0, 3.0]).unwrap();
         assert!((y[0] - 1.0).abs() < 1e-14 && (y[1] - 1.0).abs() < 1e-14);
+    }
+
+    #[test]
+    fn pattern_sums_the_values_of_each_entry_in_the_order_of_the_pairs() {
+        // random pairs with many duplicates and some negative indices, random values
+        let (size, count) = (17, 2000);
+        let mut generator = crate::test_random::SeededRandom::new(2026);
+        let mut pairs = Vec::new();
+        let mut values = Vec::new();
+        for _ in 0..count {
+            let index = |generator: &mut crate::test_random::SeededRandom| {
+                generator.index(size + 2) as isize - 2
+            };
+            let (row, col) = (index(&mut generator), index(&mut generator));
+            pairs.push(Pair::new(row, col));
+            values.push(generator.range(-1.0, 1.0));
+        }
+        let matrix = SparsityPattern::from_pairs(size, &pairs)
+            .unwrap()
+            .matrix(&values)
+            .unwrap();
+        // The reference: each entry's values added in the order of the pairs.
+        let mut sums = std::collections::BTreeMap::<(usize, usize), f64>::new();
+        for (pair, value) in pairs.iter().zip(&values) {
+            if pair.row >= 0 && pair.col >= 0 {
+                let sum = sums
+                    .entry((pair.col as usize, pair.row as usize))
+                    .or_insert(-0.0);
+                *sum += value;
+            }
+        }
+        let mut entries = Vec::new();
+        for col in 0..size {
+            let rows = matrix.symbolic().row_idx_of_col_raw(col);
+            assert!(
+                rows.windows(2).all(|w| w[0] < w[1]),
+                "column {col}: rows sorted"
+            );
+            for (&row, value) in rows.iter().zip(matrix.val_of_col(col)) {
+                entries.push(((col, row), value.to_bits()));
+            }
+        }
+        let expected: Vec<((usize, usize), u64)> = sums
+            .into_iter()
+            .map(|(entry, sum)| (entry, sum.to_bits()))
+            .collect();
+        assert_eq!(entries, expected);
     }
 
     #[test]
