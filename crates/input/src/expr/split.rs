@@ -62,6 +62,9 @@ pub struct SplitProgram {
     /// The instructions that depend on time and on the coordinates; variables = those of
     /// `whole`, then the frontier values, then the uniform values.
     varying: Program,
+    /// The output columns of `whole` and of `varying` ([`BatchOutputs::get`]).
+    whole_columns: Vec<OutputColumn>,
+    varying_columns: Vec<OutputColumn>,
     /// Slot of the time variable.
     time: usize,
     cache: PointCache,
@@ -87,7 +90,8 @@ struct Entry {
 
 /// Which program produced the outputs of a batch (see [`BatchOutputs::get`]).
 pub struct BatchOutputs<'a> {
-    program: &'a Program,
+    /// Where each output of the program that ran is.
+    columns: &'a [OutputColumn],
     registers: &'a [f64],
     count: usize,
     /// The program's input columns: an output that is a variable is read from there (its
@@ -98,10 +102,11 @@ pub struct BatchOutputs<'a> {
 impl BatchOutputs<'_> {
     /// The `count` values of output `k` at the points of the batch.
     pub fn get(&self, k: usize) -> &[f64] {
-        let register = self.program.outputs[k];
-        match self.program.instructions[register as usize] {
-            Instruction::Variable(slot) => self.inputs.column(slot, self.count),
-            _ => self.program.batch_output(self.registers, self.count, k),
+        match self.columns[k] {
+            OutputColumn::Register(register) => {
+                &self.registers[register * self.count..][..self.count]
+            }
+            OutputColumn::Variable(slot) => self.inputs.column(slot, self.count),
         }
     }
 
@@ -109,6 +114,26 @@ impl BatchOutputs<'_> {
     pub fn count(&self) -> usize {
         self.count
     }
+}
+
+/// Where an output of a program is after a batch evaluation without copies of the variables:
+/// in the register file, or in the column of a variable (its register is not written).
+#[derive(Debug, Clone, Copy)]
+enum OutputColumn {
+    Register(usize),
+    Variable(usize),
+}
+
+/// The [`OutputColumn`] of each output of `program`, in order.
+fn output_columns(program: &Program) -> Vec<OutputColumn> {
+    program
+        .outputs
+        .iter()
+        .map(|&register| match program.instructions[register as usize] {
+            Instruction::Variable(slot) => OutputColumn::Variable(slot),
+            _ => OutputColumn::Register(register as usize),
+        })
+        .collect()
 }
 
 /// A clone shares the compiled parts, not the cache: it starts empty, with the same budget.
@@ -119,6 +144,8 @@ impl Clone for SplitProgram {
             invariant: self.invariant.clone(),
             uniform: self.uniform.clone(),
             varying: self.varying.clone(),
+            whole_columns: self.whole_columns.clone(),
+            varying_columns: self.varying_columns.clone(),
             time: self.time,
             cache: PointCache {
                 budget: self.cache.budget,
@@ -191,6 +218,8 @@ impl SplitProgram {
             program.variables + frontier.len() + uniforms.len(),
         );
         SplitProgram {
+            whole_columns: output_columns(&program),
+            varying_columns: output_columns(&varying),
             whole: program,
             invariant,
             uniform,
@@ -275,12 +304,12 @@ impl SplitProgram {
                 fill_coordinates(&mut inputs, chunk);
                 let offset = batch * BATCH;
                 // Outputs that are variables are read from their columns, not copied.
-                let (program, block) = match &entry {
+                let (program, output_columns, block) = match &entry {
                     Some(entry) => {
                         let cached = &entry.frontier[offset * frontier..][..count * frontier];
-                        (&self.varying, cached)
+                        (&self.varying, &self.varying_columns, cached)
                     }
-                    None => (&self.whole, &[][..]),
+                    None => (&self.whole, &self.whole_columns, &[][..]),
                 };
                 for (time_index, &t) in times.iter().enumerate() {
                     inputs[self.time] = [t; BATCH];
@@ -295,7 +324,7 @@ impl SplitProgram {
                         offset,
                         time_index,
                         &BatchOutputs {
-                            program,
+                            columns: output_columns,
                             registers,
                             count,
                             inputs: columns,
