@@ -610,10 +610,10 @@ mod tests {
         let mut generator = crate::test_random::SeededRandom::new(2026);
         let mut pairs = Vec::new();
         let mut values = Vec::new();
+        let index = |generator: &mut crate::test_random::SeededRandom| {
+            generator.index(size + 2) as isize - 2
+        };
         for _ in 0..count {
-            let index = |generator: &mut crate::test_random::SeededRandom| {
-                generator.index(size + 2) as isize - 2
-            };
             let (row, col) = (index(&mut generator), index(&mut generator));
             pairs.push(Pair::new(row, col));
             values.push(generator.range(-1.0, 1.0));

@@ -95,7 +95,9 @@ impl Program {
         );
         assert!(
             inputs.direct.iter().all(|column| column.len() == count)
-                && inputs.uniform_stride >= count,
+                && inputs.block.len() == inputs.block_columns * count
+                && inputs.uniform_stride >= count
+                && inputs.uniforms.len() % inputs.uniform_stride == 0,
             "Program::eval_batch: every input column has `count` values"
         );
         // Every register is written before it is read: grow, never clear.
@@ -226,6 +228,15 @@ impl<'c> Inputs<'c> {
             block_columns: block.len().checked_div(count).unwrap_or(0),
             uniforms: &[],
             uniform_stride: count.max(1),
+        }
+    }
+
+    /// These columns followed by the uniform columns `uniforms`, `stride` values each.
+    pub(super) fn with_uniforms(self, uniforms: &'c [f64], stride: usize) -> Inputs<'c> {
+        Inputs {
+            uniforms,
+            uniform_stride: stride,
+            ..self
         }
     }
 

@@ -136,6 +136,17 @@ fn output_columns(program: &Program) -> Vec<OutputColumn> {
         .collect()
 }
 
+/// Per instruction (in dependency order): whether its value depends on a variable whose slot
+/// satisfies `reads`.
+fn depends_on(instructions: &[Instruction], reads: impl Fn(usize) -> bool) -> Vec<bool> {
+    let mut depends = vec![false; instructions.len()];
+    for (index, instruction) in instructions.iter().enumerate() {
+        depends[index] = matches!(instruction, Instruction::Variable(slot) if reads(*slot))
+            || instruction.operands().any(|r| depends[r as usize]);
+    }
+    depends
+}
+
 /// A clone shares the compiled parts, not the cache: it starts empty, with the same budget.
 impl Clone for SplitProgram {
     fn clone(&self) -> SplitProgram {
@@ -165,17 +176,9 @@ impl SplitProgram {
         assert!(time < program.variables, "SplitProgram::new: time slot");
         let instructions = &program.instructions;
         let count = instructions.len();
-        let mut varies = vec![false; count];
-        for (index, instruction) in instructions.iter().enumerate() {
-            varies[index] = matches!(instruction, Instruction::Variable(slot) if *slot == time)
-                || instruction.operands().any(|r| varies[r as usize]);
-        }
+        let varies = depends_on(instructions, |slot| slot == time);
         // Depends on a coordinate (a variable other than time).
-        let mut spatial = vec![false; count];
-        for (index, instruction) in instructions.iter().enumerate() {
-            spatial[index] = matches!(instruction, Instruction::Variable(slot) if *slot != time)
-                || instruction.operands().any(|r| spatial[r as usize]);
-        }
+        let spatial = depends_on(instructions, |slot| slot != time);
         let per_point = |r: usize| varies[r] && spatial[r];
         // What the varying part reads from the other two, or gives out as it is.
         let mut needed = vec![false; count];
@@ -316,8 +319,10 @@ impl SplitProgram {
                     let direct: [&[f64]; 4] = std::array::from_fn(|v| &inputs[v][..count]);
                     let mut columns = Inputs::new(&direct[..variables], block, count);
                     if entry.is_some() {
-                        columns.uniforms = &uniform_columns[time_index * uniforms..][..uniforms];
-                        columns.uniform_stride = BATCH;
+                        columns = columns.with_uniforms(
+                            &uniform_columns[time_index * uniforms..][..uniforms],
+                            BATCH,
+                        );
                     }
                     program.eval_batch_columns(&columns, count, registers, false);
                     each(
