@@ -63,7 +63,7 @@ pub(crate) const COARSEST_SIZE: usize = 64;
 pub(crate) const COARSEST_SWEEPS: usize = 4;
 /// Error reduction (maximum norm) asked of the sweeps on a coarsest level without a dense
 /// factor: a V-cycle preconditioner needs an approximate coarse solve only.
-pub(crate) const COARSEST_REDUCTION: f64 = 0.1;
+const COARSEST_REDUCTION: f64 = 0.1;
 /// Size below which a pivot of the dense coarsest factor counts as zero, relative to the
 /// largest diagonal entry (the scale of the rounding errors of the factorization).
 const PIVOT_DROP: f64 = 1e-12;
@@ -702,7 +702,7 @@ fn gauss_seidel(level: &mut Level, backward: bool) {
 /// the iteration converges to (the KKT residual is checked as always). Measured on the steps
 /// 25–32 of that problem, solved 30 times in one process alternating the counts: 26 / 25
 /// multigrid / CG iterations with four sweeps, 27 / 24 with one, (5.2) about 7 % faster.
-pub(crate) fn coarsest_sweeps(matrix: &Csr, diagonal: &[f64]) -> usize {
+fn coarsest_sweeps(matrix: &Csr, diagonal: &[f64]) -> usize {
     let mut dominance = 0.0_f64;
     for (i, &a) in diagonal.iter().enumerate() {
         if a > 0.0 {
@@ -719,15 +719,9 @@ pub(crate) fn coarsest_sweeps(matrix: &Csr, diagonal: &[f64]) -> usize {
     if dominance >= 1.0 {
         return COARSEST_SWEEPS;
     }
-    if dominance == 0.0 {
-        return 1;
-    }
+    // ρ = 0 (a diagonal level) gives 0 here, and one sweep solves it exactly
     let sweeps = (COARSEST_REDUCTION.ln() / (2.0 * dominance.ln())).ceil();
-    if sweeps >= COARSEST_SWEEPS as f64 {
-        COARSEST_SWEEPS
-    } else {
-        (sweeps as usize).max(1)
-    }
+    (sweeps as usize).clamp(1, COARSEST_SWEEPS)
 }
 
 /// `1/d` for `d > 0`, else 0 (a truncated row).
@@ -1055,10 +1049,8 @@ pub(crate) mod tests {
                 matrix.multiply(&exact, &mut rhs);
                 let mut z = vec![0.0; n];
                 hierarchy.cycle(&rhs, &mut z);
-                let error = exact
-                    .iter()
-                    .zip(&z)
-                    .fold(0.0_f64, |m, (x, z)| m.max((x - z).abs()));
+                let difference: Vec<f64> = exact.iter().zip(&z).map(|(x, z)| x - z).collect();
+                let error = max_abs(&difference);
                 let bound = dominance.powi(2 * sweeps as i32) * max_abs(&exact);
                 assert!(error <= bound, "band {band}: error {error} > {bound}");
                 if sweeps < COARSEST_SWEEPS {
