@@ -36,7 +36,9 @@
 //!    `src/coarse_obstacle.rs`): the correction constant on the aggregates of the coarsening
 //!    that minimizes `q` within conservative bounds, by the same method on `P̂ᵀAP̂`,
 //!    recursively. It frees in one step a layer of indices that the smoother would free a
-//!    few cells per iteration.
+//!    few cells per iteration. Computed while the KKT residual is above the coarse tolerance,
+//!    and below it where a band of indices on a bound still has gradients pointing into the
+//!    box (see that module).
 //! 1. **Nonlinear smoothing**: a symmetric projected Gauss–Seidel sweep, every `x_i` in turn
 //!    replaced by the exact minimizer of `q` in its interval, `clamp(x_i − g_i/a_ii)`.
 //! 2. **Truncation**: the indices lying on a bound after the smoothing keep their value; the
@@ -176,7 +178,7 @@ use std::hash::{DefaultHasher, Hash, Hasher};
 use faer::sparse::{SparseColMat, Triplet};
 use faer::MatMut;
 
-use crate::coarse_obstacle::CoarseObstacle;
+use crate::coarse_obstacle::{bound_violations, CoarseObstacle};
 use crate::error::{Error, History, Result};
 pub use crate::linalg::FactorKind;
 use crate::linalg::{multiply_into, CholeskySolver};
@@ -498,6 +500,13 @@ impl BoxQpSolver {
         &self.matrix
     }
 
+    /// Sets the scaled KKT tolerance of the next solves (the coarse obstacle corrections
+    /// solve their box QP to a tolerance relative to the fine residual).
+    pub(crate) fn set_tolerance(&mut self, tolerance: f64) {
+        debug_assert!(tolerance > 0.0 && tolerance.is_finite());
+        self.settings.tolerance = tolerance;
+    }
+
     /// The settings given to [`BoxQpSolver::new`].
     pub fn settings(&self) -> BoxQpSettings {
         self.settings
@@ -647,11 +656,22 @@ impl BoxQpSolver {
             stats.iterations += 1;
             // 0. The coarse obstacle correction (`crate::coarse_obstacle`).
             let residual = history.last().copied().unwrap_or(f64::INFINITY);
-            if let Some(coarse) = self.coarse.as_mut().filter(|c| c.applies_at(residual)) {
-                let iterations = coarse.correct(x, &work.gradient, problem.lower, problem.upper)?;
-                if iterations > 0 {
-                    stats.coarse_iterations += iterations;
-                    residual_gradient(rows, x, problem.rhs, &mut work.gradient);
+            if let Some(coarse) = self.coarse.as_mut() {
+                let violations = || {
+                    bound_violations(x, &work.gradient, problem.lower, problem.upper, problem.tie)
+                };
+                if let Some(tolerance) = coarse.tolerance_at(residual, n, violations) {
+                    let iterations = coarse.correct(
+                        x,
+                        &work.gradient,
+                        problem.lower,
+                        problem.upper,
+                        tolerance,
+                    )?;
+                    if iterations > 0 {
+                        stats.coarse_iterations += iterations;
+                        residual_gradient(rows, x, problem.rhs, &mut work.gradient);
+                    }
                 }
             }
             // 1. Nonlinear smoothing: a symmetric projected Gauss–Seidel sweep.
