@@ -127,7 +127,9 @@ pub(crate) fn bound_violations(
 
 /// The coarse correction of one box QP (see the module documentation).
 pub(crate) struct CoarseObstacle {
-    /// The KKT tolerance of the box QP this correction was built for.
+    /// The KKT tolerance of the box QP this correction was built for (for the correction of
+    /// a coarse problem, the coarse tolerance of the level above: the band rule acts on the
+    /// finest level only).
     fine_tolerance: f64,
     /// The tolerance of the coarse solves above which every iteration gets a correction.
     coarse_tolerance: f64,
