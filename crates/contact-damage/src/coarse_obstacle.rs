@@ -40,8 +40,8 @@
 //! fine residual, since a coarse gradient (a sum of fine ones) below the fixed tolerance would
 //! stop the coarse solve at d = 0. Measured in `bench_step`'s 2D damage problem (κ = 0.01,
 //! k = 1/128, the bound set β = 1 shrinking by about 1.6 k indices per step at 512²), steps
-//! 25–32 solved in one process: at 512² the start residuals are about 6e-8 with 100–250 such
-//! indices, and the fine iterations of the eight steps fall from 41 / 74 (outer / CG) to
+//! 25–32 solved in one process: at 512² the start residuals are 6e-8 to 1.5e-7 with 8–240
+//! such indices, and the fine iterations of the eight steps fall from 41 / 74 (outer / CG) to
 //! 30 / 47, the time per step from 195 to 167 ms; at 256² from 31 / 52 to 25 / 41 and from 36
 //! to 32 ms. Without the band rule (a correction at every iteration) the same counts, but
 //! `zones2d` at 128 cells, whose bound set does not move in bands (0–9 such indices in most
