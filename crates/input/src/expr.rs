@@ -1674,12 +1674,14 @@ mod tests {
         }
 
         /// The batch evaluation compiled for AVX2 (taken on processors that have it) and the
-        /// baseline one give bitwise the same registers, on full batches of 32 points and
-        /// partial ones, with every derivative the manufactured data use.
+        /// baseline one give bitwise the same registers, on full batches of
+        /// [`split::BATCH`] points and partial ones, with every derivative the manufactured
+        /// data use.
         #[test]
         fn batch_evaluation_with_and_without_avx2_is_bitwise_the_same(
             tree in tree_strategy(),
-            points in proptest::collection::vec(proptest::array::uniform4(-2.0f64..2.0), 1..40),
+            points in proptest::collection::vec(
+                proptest::array::uniform4(-2.0f64..2.0), 1..split::BATCH + 40),
         ) {
             let Some((source, _, program)) = compiled_manufactured(&tree) else {
                 return Ok(());
@@ -1793,7 +1795,8 @@ mod tests {
         #[test]
         fn split_programs_are_bitwise_the_whole_program_on_random_expressions(
             tree in tree_strategy(),
-            points in proptest::collection::vec(proptest::array::uniform3(-2.0f64..2.0), 1..80),
+            points in proptest::collection::vec(
+                proptest::array::uniform3(-2.0f64..2.0), 1..2 * split::BATCH + 20),
             times in proptest::collection::vec(-2.0f64..2.0, 1..4),
         ) {
             let source = print(&tree, 0);

@@ -1394,10 +1394,10 @@ mod tests {
         );
         let (compiled_force, compiled_traction) =
             (CompiledField::new(&force), CompiledField::new(&traction));
-        let points: Vec<[f64; D]> = (0..77)
+        let points: Vec<[f64; D]> = (0..2 * BATCH + 13)
             .map(|p| std::array::from_fn(|i| ((p * (7 + 4 * i) + 3 * i) % 97) as f64 / 48.0))
             .collect();
-        let normals: Vec<[f64; D]> = (0..77)
+        let normals: Vec<[f64; D]> = (0..2 * BATCH + 13)
             .map(|p| {
                 let angle = 0.37 * p as f64;
                 std::array::from_fn(|i| [angle.cos(), angle.sin(), 0.0][i])

@@ -43,11 +43,22 @@ use super::batch::Inputs;
 use super::compiled::{with_registers, Builder, Instruction, Register};
 use super::Program;
 
-/// Points per batch of an evaluation: the time-dependent part of a program of about 60
-/// instructions then keeps its register file in the L1 cache (32 × 60 × 8 bytes = 15 KiB).
-/// Measured on `zones2d` at 128 cells, one thread (`bench_harness`): manufactured data 3.11 s
-/// with 128 points per batch, 2.51 s with 64, 2.26 s with 32, 2.61 s with 16.
-pub const BATCH: usize = 32;
+/// Points per batch of an evaluation: the dispatch on an instruction and the lookup of its
+/// operand columns are paid once per batch, and each instruction is a loop of `BATCH / 4`
+/// AVX2 operations; the register file of the time-dependent part of a program of about 60
+/// instructions (128 × 60 × 8 bytes = 60 KiB) stays in the L2 cache. The values do not depend
+/// on the batch: every point gets the operations of the point-by-point evaluation.
+///
+/// Measured on `zones2d` at 128 cells, k = h, one thread (`bench_harness` and a probe of its
+/// run, interleaved with the previous build on the 2-core AMD EPYC of session 22, family 26,
+/// 48 KiB L1d and 1 MiB L2 per core): data + errors 1.10 / 1.16 s with 32 points per batch,
+/// 0.94 / 0.94 s with 128 (data 0.52 / 0.55 → 0.43 / 0.43 s, errors 0.57 / 0.61 → 0.51 /
+/// 0.51 s); in probe pairs data 0.53–0.56 s with 32, 0.45–0.52 with 64, 0.39–0.46 with 128,
+/// 0.42 with 256. `simulate`'s 128² run is the same with 32 or 128 (1.61–1.67 s fastest in
+/// three pairs). 32 had been chosen in session 6, before the AVX2 loop and the evaluation at
+/// several times per call (data 3.11 s with 128 points per batch, 2.26 s with 32 then), and
+/// session 19 measured 64 within the noise.
+pub const BATCH: usize = 128;
 
 /// A [`Program`] split into its time-independent and time-dependent parts, with a cache of the
 /// time-independent values per set of points.
@@ -509,7 +520,8 @@ mod tests {
         ];
         let split = SplitProgram::new(program(&sources), 3, 1 << 20);
         let whole = SplitProgram::new(program(&sources), 3, 0);
-        let points = points(300);
+        // Two full batches and a partial one.
+        let points = points(2 * BATCH + 44);
         for t in [0.0, 0.25, 1.0] {
             // First call fills the cache, the second reads it; the budget-0 one never caches.
             for _ in 0..2 {
@@ -528,8 +540,8 @@ mod tests {
             "exp(-t)*x",
         ];
         let times = [0.0, 0.125, 0.25, 1.0];
-        // 100 points: three full batches and a partial one; cached and uncached.
-        let points = points(100);
+        // Three full batches and a partial one; cached and uncached.
+        let points = points(3 * BATCH + 4);
         for budget in [1 << 20, 0] {
             let split = SplitProgram::new(program(&sources), 3, budget);
             let mut at_times = vec![vec![Vec::new(); split.whole().output_count()]; times.len()];

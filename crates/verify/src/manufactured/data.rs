@@ -406,11 +406,11 @@ mod tests {
             }
             let case = Case::<D>::new(file, &origin).unwrap();
             let data = ManufacturedData::new(case.programs.clone(), case.laws.clone());
-            // 300 points (more than two batches), spread over the box by a fixed sequence.
-            let points: Vec<[f64; D]> = (0..300)
+            // More than two batches, spread over the box by a fixed sequence.
+            let points: Vec<[f64; D]> = (0..2 * BATCH + 44)
                 .map(|p| std::array::from_fn(|i| ((p * (7 + 4 * i) + 3 * i) % 97) as f64 / 96.0))
                 .collect();
-            let normals: Vec<[f64; D]> = (0..300)
+            let normals: Vec<[f64; D]> = (0..2 * BATCH + 44)
                 .map(|p| std::array::from_fn(|i| if i == p % D { -1.0 } else { 0.0 }))
                 .collect();
             for t in [0.0, 0.37, 1.0] {
@@ -511,8 +511,8 @@ mod tests {
             BodyForce(data.clone()).times_per_evaluation(),
             TIMES_PER_EVALUATION
         );
-        // 70 points: two full batches and a partial one.
-        let points: Vec<[f64; D]> = (0..70)
+        // Two full batches and a partial one.
+        let points: Vec<[f64; D]> = (0..2 * BATCH + 6)
             .map(|p| std::array::from_fn(|i| ((p * (5 + 2 * i) + i) % 41) as f64 / 40.0))
             .collect();
         let times = [0.25, 0.5, 0.75, 1.0];
