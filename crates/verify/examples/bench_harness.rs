@@ -30,6 +30,11 @@ use verify::errors::{ErrorTracker, Reference};
 use verify::manufactured::data::ExactPrograms;
 use verify::output::{write_atomic, write_csv_atomic, write_json_atomic};
 
+// the machine description of the solver's bench examples
+#[path = "../../contact-damage/examples/common/report.rs"]
+#[allow(dead_code)] // its number format and writer serve the other benches
+mod report;
+
 /// A data field that adds the time spent in it to a shared counter.
 struct Timed<F: ?Sized> {
     inner: Arc<F>,
@@ -237,6 +242,7 @@ fn main() {
         }
     };
     let all = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let (started, load) = (report::utc_now(), report::load_average());
     let zones2d = case::<2>("zones2d");
     let zones3d = case::<3>("zones3d");
     let mut rows = Vec::new();
@@ -292,7 +298,9 @@ fn main() {
         ));
     }
     text.push_str(&format!(
-        "\nMachine: {all} threads available; other processes may share them (wall times).\n"
+        "\nMachine: {}, {all} threads available; other processes may share them (wall times; \
+         load average at start {load}).  \nDate: {started}.\n",
+        report::cpu_model()
     ));
     write_atomic(std::path::Path::new(&out), text.as_bytes())
         .unwrap_or_else(|e| panic!("cannot write {out}: {e}"));
