@@ -290,7 +290,7 @@ impl SplitProgram {
     /// the outputs at `times[0]`, `times[1]`, … in turn, `each(offset, time_index, outputs)`.
     /// The outputs at each time are bitwise those of [`SplitProgram::for_batches`] at that
     /// time; the time-independent values of a batch are read from memory once for all the
-    /// times (they stay in the L1 cache between them).
+    /// times (they stay in the L1 or L2 cache between them).
     ///
     /// # Panics
     /// If the program has fewer than `D + 1` variables, or more than 4.
