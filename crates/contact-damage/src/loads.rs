@@ -23,7 +23,7 @@ use rayon::prelude::*;
 
 /// Cells per parallel task of the load assembly (the batch size of field evaluations is this
 /// times the number of quadrature points per cell).
-const CHUNK_CELLS: usize = 64;
+const CHUNK_CELLS: usize = 256;
 
 /// The time-independent quadrature data of the loads, computed once per mesh.
 #[derive(Debug, Clone)]
@@ -252,19 +252,11 @@ impl<const D: usize> LoadQuadrature<D> {
         first: usize,
         out: &mut [f64],
     ) {
-        let elasticity = model.elasticity.as_ref();
-        let damage_source = model.damage_source.as_ref();
-        let (displacement, damage) = (&state.displacement, &state.damage);
         let tab = &self.tabulation;
-        let n = tab.nodes;
         let nq = tab.len();
-        let local = n * (D + 1);
-        // P1 on affine simplices: the basis gradients, hence ε(u_{n−1}), are constant per cell.
-        let constant_gradients = space.degree() == 1;
-        let count = out.len() / local;
+        let count = out.len() / (tab.nodes * (D + 1));
         let range = first * nq..(first + count) * nq;
         let points = &self.points[range.clone()];
-        let weights = &self.weights[range];
         let (mut own_force, mut own_supply) = (Vec::new(), Vec::new());
         let (force, supply): (&[[f64; D]], &[f64]) = match bulk {
             Some(((force, supply), at)) => {
@@ -295,79 +287,87 @@ impl<const D: usize> LoadQuadrature<D> {
                 (&own_force, &own_supply)
             }
         };
-        // ε(u_{n−1}) (once per cell for P1, where it is constant) and β_{n−1} at every point
-        // of the chunk, then φ over the batch.
-        let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
-        let mut strains = Vec::with_capacity(points.len());
-        let mut betas = Vec::with_capacity(points.len());
-        let mut point_grads = Vec::with_capacity(points.len() * n);
-        let mut nodal_damage = [0.0; crate::element::MAX_CELL_NODES];
-        for c in 0..count {
-            let cell = first + c;
+        let chunk = Chunk {
+            first,
+            weights: &self.weights[range],
+            force,
+            supply,
+        };
+        // P1 on affine simplices (D + 1 nodes): the basis gradients, hence ε(u_{n−1}), are
+        // constant per cell.
+        match (space.degree(), tab.nodes) {
+            (1, 3) => self.affine_cells::<3>(space, model, state, &chunk, out),
+            (1, 4) => self.affine_cells::<4>(space, model, state, &chunk, out),
+            _ => self.pointwise_cells(space, model, state, &chunk, out),
+        }
+    }
+
+    /// [`Self::cell_chunk`] for P1 on affine simplices with `N = D + 1` nodes: ε(u_{n−1}) once
+    /// per cell, β_{n−1} at every point, φ over the chunk, then per cell the stress integrated
+    /// first ([`crate::laws::Elasticity::weighted_stress_sum`], one evaluation of G for a law
+    /// linear in β) and contracted with each basis gradient once. The element arrays have
+    /// the fixed size of the element.
+    fn affine_cells<const N: usize>(
+        &self,
+        space: &LagrangeSpace<D>,
+        model: &Model<D>,
+        state: &State,
+        chunk: &Chunk<'_, D>,
+        out: &mut [f64],
+    ) {
+        let tab = &self.tabulation;
+        let nq = tab.len();
+        let local = N * (D + 1);
+        let count = out.len() / local;
+        let (displacement, damage) = (&state.displacement, &state.damage);
+        let reference_gradients: [SVector<f64, D>; N] = std::array::from_fn(|a| tab.gradients[a]);
+        let mut strains = Vec::with_capacity(count);
+        let mut gradients = Vec::with_capacity(count);
+        let mut betas = vec![0.0; count * nq];
+        for (c, cell_betas) in betas.chunks_exact_mut(nq).enumerate() {
+            let cell = chunk.first + c;
             let geometry = space.geometry(cell);
-            let nodes = space.cell_nodes(cell);
-            for (value, &node) in nodal_damage.iter_mut().zip(nodes) {
-                *value = damage[node];
-            }
-            for q in 0..nq {
-                if q == 0 || !constant_gradients {
-                    physical_gradients(geometry, tab, q, &mut grads);
-                    strains.push(field_strain(nodes, &grads[..n], displacement));
-                    point_grads.extend_from_slice(&grads[..n]);
+            let nodes: &[usize; N] = space
+                .cell_nodes(cell)
+                .try_into()
+                .expect("an affine P1 cell has N nodes");
+            let grads: [SVector<f64, D>; N] =
+                std::array::from_fn(|a| geometry.inverse_transpose * reference_gradients[a]);
+            strains.push(field_strain(nodes, &grads, displacement));
+            gradients.push(grads);
+            let nodal: [f64; N] = std::array::from_fn(|a| damage[nodes[a]]);
+            // β_{n−1} at the points of the cell
+            for (beta, values) in cell_betas.iter_mut().zip(tab.values.chunks_exact(N)) {
+                let mut sum = 0.0;
+                for a in 0..N {
+                    sum += nodal[a] * values[a];
                 }
-                let values = &tab.values[q * n..(q + 1) * n];
-                // β_{n−1} at the point
-                let mut beta = 0.0;
-                for (b, v) in nodal_damage[..n].iter().zip(values) {
-                    beta += b * v;
-                }
-                betas.push(beta);
+                *beta = sum;
             }
         }
-        let mut sources = vec![0.0; points.len()];
-        if constant_gradients {
-            damage_source.source_cells(&strains, &betas, &mut sources);
-        } else {
-            damage_source.source_batch(&strains, &betas, &mut sources);
-        }
+        let mut sources = vec![0.0; betas.len()];
+        model
+            .damage_source
+            .source_cells(&strains, &betas, &mut sources);
+        let elasticity = model.elasticity.as_ref();
         let mut weighted_sources = vec![0.0; nq];
-        for (c, out) in out.chunks_mut(local).enumerate() {
+        for (c, out) in out.chunks_exact_mut(local).enumerate() {
             let cell_points = c * nq..(c + 1) * nq;
-            if constant_gradients {
-                // P1: the strain and the basis gradients are constant on the cell, so
-                // the stress is integrated first (one evaluation of G for a law linear
-                // in β) and contracted with each gradient once.
-                let grads = &point_grads[c * n..(c + 1) * n];
-                let stress = elasticity.weighted_stress_sum(
-                    &strains[c],
-                    &betas[cell_points.clone()],
-                    &weights[cell_points.clone()],
-                );
-                for (a, grad) in grads.iter().enumerate() {
-                    let internal = stress * grad;
-                    for i in 0..D {
-                        out[a * (D + 1) + i] -= internal[i];
-                    }
+            let weights = &chunk.weights[cell_points.clone()];
+            let stress =
+                elasticity.weighted_stress_sum(&strains[c], &betas[cell_points.clone()], weights);
+            for (a, grad) in gradients[c].iter().enumerate() {
+                let internal = stress * grad;
+                for i in 0..D {
+                    out[a * (D + 1) + i] -= internal[i];
                 }
             }
-            for q in 0..nq {
-                let p = c * nq + q;
-                let values = &tab.values[q * n..(q + 1) * n];
-                let weight = weights[p];
-                if !constant_gradients {
-                    let grads = &point_grads[p * n..(p + 1) * n];
-                    let stress = elasticity.stress(&strains[p], betas[p]);
-                    for (a, grad) in grads.iter().enumerate() {
-                        let internal = stress * grad;
+            if !chunk.force.is_empty() {
+                let force = &chunk.force[cell_points.clone()];
+                for ((values, weight), f) in tab.values.chunks_exact(N).zip(weights).zip(force) {
+                    for a in 0..N {
                         for i in 0..D {
-                            out[a * (D + 1) + i] -= weight * internal[i];
-                        }
-                    }
-                }
-                if !force.is_empty() {
-                    for (a, value) in values.iter().enumerate() {
-                        for i in 0..D {
-                            out[a * (D + 1) + i] += weight * (force[p][i] * value);
+                            out[a * (D + 1) + i] += weight * (f[i] * values[a]);
                         }
                     }
                 }
@@ -375,8 +375,12 @@ impl<const D: usize> LoadQuadrature<D> {
             // ⟨φ + q, φ_a⟩ on the cell: the weighted sources of its points, one sum per node.
             for (q, weighted) in weighted_sources.iter_mut().enumerate() {
                 let p = c * nq + q;
-                let supplied = if supply.is_empty() { 0.0 } else { supply[p] };
-                *weighted = weights[p] * (sources[p] + supplied);
+                let supplied = if chunk.supply.is_empty() {
+                    0.0
+                } else {
+                    chunk.supply[p]
+                };
+                *weighted = chunk.weights[p] * (sources[p] + supplied);
             }
             for (a, node_values) in self.values_by_node.chunks_exact(nq).enumerate() {
                 let mut sum = 0.0;
@@ -387,6 +391,104 @@ impl<const D: usize> LoadQuadrature<D> {
             }
         }
     }
+
+    /// [`Self::cell_chunk`] for any element: ε(u_{n−1}) and β_{n−1} at every point of the
+    /// chunk, φ over the batch, then G at every point contracted with the basis gradients
+    /// there.
+    fn pointwise_cells(
+        &self,
+        space: &LagrangeSpace<D>,
+        model: &Model<D>,
+        state: &State,
+        chunk: &Chunk<'_, D>,
+        out: &mut [f64],
+    ) {
+        let elasticity = model.elasticity.as_ref();
+        let (displacement, damage) = (&state.displacement, &state.damage);
+        let tab = &self.tabulation;
+        let n = tab.nodes;
+        let nq = tab.len();
+        let local = n * (D + 1);
+        let count = out.len() / local;
+        let mut grads = [SVector::<f64, D>::zeros(); crate::element::MAX_CELL_NODES];
+        let mut strains = Vec::with_capacity(count * nq);
+        let mut betas = Vec::with_capacity(count * nq);
+        let mut point_grads = Vec::with_capacity(count * nq * n);
+        let mut nodal_damage = [0.0; crate::element::MAX_CELL_NODES];
+        for c in 0..count {
+            let cell = chunk.first + c;
+            let geometry = space.geometry(cell);
+            let nodes = space.cell_nodes(cell);
+            for (value, &node) in nodal_damage.iter_mut().zip(nodes) {
+                *value = damage[node];
+            }
+            for q in 0..nq {
+                physical_gradients(geometry, tab, q, &mut grads);
+                strains.push(field_strain(nodes, &grads[..n], displacement));
+                point_grads.extend_from_slice(&grads[..n]);
+                let values = &tab.values[q * n..(q + 1) * n];
+                // β_{n−1} at the point
+                let mut beta = 0.0;
+                for (b, v) in nodal_damage[..n].iter().zip(values) {
+                    beta += b * v;
+                }
+                betas.push(beta);
+            }
+        }
+        let mut sources = vec![0.0; betas.len()];
+        model
+            .damage_source
+            .source_batch(&strains, &betas, &mut sources);
+        let mut weighted_sources = vec![0.0; nq];
+        for (c, out) in out.chunks_mut(local).enumerate() {
+            for q in 0..nq {
+                let p = c * nq + q;
+                let values = &tab.values[q * n..(q + 1) * n];
+                let weight = chunk.weights[p];
+                let grads = &point_grads[p * n..(p + 1) * n];
+                let stress = elasticity.stress(&strains[p], betas[p]);
+                for (a, grad) in grads.iter().enumerate() {
+                    let internal = stress * grad;
+                    for i in 0..D {
+                        out[a * (D + 1) + i] -= weight * internal[i];
+                    }
+                }
+                if !chunk.force.is_empty() {
+                    for (a, value) in values.iter().enumerate() {
+                        for i in 0..D {
+                            out[a * (D + 1) + i] += weight * (chunk.force[p][i] * value);
+                        }
+                    }
+                }
+            }
+            // ⟨φ + q, φ_a⟩ on the cell: the weighted sources of its points, one sum per node.
+            for (q, weighted) in weighted_sources.iter_mut().enumerate() {
+                let p = c * nq + q;
+                let supplied = if chunk.supply.is_empty() {
+                    0.0
+                } else {
+                    chunk.supply[p]
+                };
+                *weighted = chunk.weights[p] * (sources[p] + supplied);
+            }
+            for (a, node_values) in self.values_by_node.chunks_exact(nq).enumerate() {
+                let mut sum = 0.0;
+                for (weighted, value) in weighted_sources.iter().zip(node_values) {
+                    sum += weighted * value;
+                }
+                out[a * (D + 1) + D] += sum;
+            }
+        }
+    }
+}
+
+/// The per-point data of a chunk of cells for [`LoadQuadrature::cell_chunk`]: its first cell,
+/// reference weight × |det J| of its points, f0 and q there (empty when the data lack them).
+struct Chunk<'a, const D: usize> {
+    first: usize,
+    weights: &'a [f64],
+    force: &'a [[f64; D]],
+    supply: &'a [f64],
 }
 
 #[cfg(test)]
