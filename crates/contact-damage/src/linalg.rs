@@ -548,6 +548,49 @@ pub fn multiply_into(matrix: &SparseColMat<usize, f64>, x: &[f64], product: &mut
     }
 }
 
+/// Partial maxima kept apart in the reductions [`max_abs`] and [`max_abs_free`].
+const MAX_LANES: usize = 8;
+
+/// `max_i |v_i|` (0 for an empty slice; a NaN entry is ignored, as by `f64::max`).
+///
+/// The running maximum is kept in [`MAX_LANES`] independent partial maxima, so that the loop
+/// is not one chain of dependent comparisons (each waiting for the one before) and
+/// vectorizes. A maximum does not depend on the order of its terms, so the value is bitwise
+/// that of the sequential fold `fold(0.0, |m, v| m.max(v.abs()))`.
+pub fn max_abs(values: &[f64]) -> f64 {
+    let mut lanes = [0.0_f64; MAX_LANES];
+    let mut chunks = values.chunks_exact(MAX_LANES);
+    for chunk in &mut chunks {
+        for (lane, value) in lanes.iter_mut().zip(chunk) {
+            *lane = lane.max(value.abs());
+        }
+    }
+    for value in chunks.remainder() {
+        lanes[0] = lanes[0].max(value.abs());
+    }
+    lanes.into_iter().fold(0.0, f64::max)
+}
+
+/// `max |v_i|` over the indices with `excluded[i] == false`, as [`max_abs`] (bitwise the
+/// sequential fold over those indices).
+pub fn max_abs_free(values: &[f64], excluded: &[bool]) -> f64 {
+    assert_eq!(values.len(), excluded.len(), "one flag per value");
+    let mut lanes = [0.0_f64; MAX_LANES];
+    let mut chunks = values.chunks_exact(MAX_LANES);
+    let mut flags = excluded.chunks_exact(MAX_LANES);
+    for (chunk, flags) in (&mut chunks).zip(&mut flags) {
+        for ((lane, value), &excluded) in lanes.iter_mut().zip(chunk).zip(flags) {
+            *lane = lane.max(if excluded { 0.0 } else { value.abs() });
+        }
+    }
+    for (value, &excluded) in chunks.remainder().iter().zip(flags.remainder()) {
+        if !excluded {
+            lanes[0] = lanes[0].max(value.abs());
+        }
+    }
+    lanes.into_iter().fold(0.0, f64::max)
+}
+
 /// y = A x for a symmetric matrix in full (both triangles) storage: see
 /// [`multiply_symmetric_into`].
 pub fn multiply_symmetric(matrix: &SparseColMat<usize, f64>, x: &[f64]) -> Vec<f64> {
@@ -581,6 +624,31 @@ pub fn multiply_symmetric_into(matrix: &SparseColMat<usize, f64>, x: &[f64], pro
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The lane-wise maxima equal the sequential folds bit for bit, for any length (full
+        /// lanes and a remainder), signs, NaN entries (ignored by both) and exclusions.
+        #[test]
+        fn max_abs_is_the_sequential_fold(
+            values in proptest::collection::vec(
+                prop_oneof![8 => -1e3..1e3_f64, 1 => Just(f64::NAN), 1 => Just(-0.0)],
+                0..40,
+            ),
+            excluded_seed in any::<u64>(),
+        ) {
+            let sequential = values.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            prop_assert_eq!(max_abs(&values).to_bits(), sequential.to_bits());
+            let excluded: Vec<bool> =
+                (0..values.len()).map(|i| (excluded_seed >> (i % 64)) & 1 == 1).collect();
+            let free = values
+                .iter()
+                .zip(&excluded)
+                .filter(|(_, &e)| !e)
+                .fold(0.0_f64, |m, (v, _)| m.max(v.abs()));
+            prop_assert_eq!(max_abs_free(&values, &excluded).to_bits(), free.to_bits());
+        }
+    }
 
     #[test]
     fn pattern_sums_duplicates_and_drops_negative_indices() {

@@ -64,7 +64,7 @@ use crate::assembly::viscous_element_matrix;
 use crate::contact::{ContactNodes, ContactStatus};
 use crate::friction::{CondensedFriction, FrictionSettings};
 use crate::laws::{ContactLaw, Viscosity};
-use crate::linalg::{multiply_symmetric, CholeskySolver, SparsityPattern};
+use crate::linalg::{max_abs, max_abs_free, multiply_symmetric, CholeskySolver, SparsityPattern};
 use crate::mesh::BoundaryPart;
 use crate::ordering::{fill_reducing_node_order, NodeGraph};
 use crate::quadrature::QuadratureRule;
@@ -787,15 +787,8 @@ impl<const D: usize> VelocityOperator<D> {
         force: &[f64],
     ) -> f64 {
         let mut residual: Vec<f64> = force.iter().zip(load_system).map(|(n, f)| n - f).collect();
-        let free_largest = |values: &[f64]| {
-            values
-                .iter()
-                .zip(&self.constrained)
-                .filter(|(_, &c)| !c)
-                .fold(0.0f64, |m, (v, _)| m.max(v.abs()))
-        };
-        let load_scale = free_largest(load_system);
-        let force_scale = free_largest(force).max(self.lifting_scale);
+        let load_scale = max_abs_free(load_system, &self.constrained);
+        let force_scale = max_abs_free(force, &self.constrained).max(self.lifting_scale);
         for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
             residual[dof] = velocity_system[dof] - self.prescribed[dof];
         }
@@ -824,7 +817,7 @@ impl<const D: usize> VelocityOperator<D> {
             .max(force_scale)
             .max(friction_force)
             .max(f64::MIN_POSITIVE);
-        let stationarity = residual.iter().fold(0.0f64, |m, r| m.max(r.abs())) / scale;
+        let stationarity = max_abs(&residual) / scale;
         stationarity.max(worst)
     }
 
