@@ -8,7 +8,9 @@
 //! CASE is `2d:N` or `3d:N`; default 2D P1 at N = 128, 256, 512 and 3D P1 at N = 16, 32
 //! (`--quick`: 2d:64 and 3d:8, written to `reports/benchmark_step-quick.md`). Every case runs on
 //! one thread (`--threads 1` of `simulate`) in a fresh process (the example calls itself with
-//! `--child CASE`), so the sizes do not share allocator state.
+//! `--child CASE --threads 1`), so the sizes do not share allocator state; on a machine with
+//! several cores it runs once more on all of them (`--threads` = the cores, `simulate`'s
+//! default) for a second table of full steps.
 //!
 //! The problem is `examples/rectangle_2d.toml` (resp. `block_3d.toml`) on the unit square (cube)
 //! with N cells per side, T = 1 and 128 steps, with β_0 = 1 − 0.4 exp(−|x − x_c|²/0.02) (x_c
@@ -68,11 +70,17 @@ fn main() -> Result<(), Failure> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     if let Some(position) = args.iter().position(|a| a == "--child") {
         let case = args.get(position + 1).ok_or("--child needs a case")?;
-        contact_input::threads::set_threads(Some(1))?;
+        let threads = match args.iter().position(|a| a == "--threads") {
+            Some(p) => args.get(p + 1).ok_or("--threads needs a count")?.parse()?,
+            None => 1,
+        };
+        contact_input::threads::set_threads(Some(threads))?;
         let (dim, cells) = parse_case(case)?;
-        let line = match dim {
-            2 => measure::<2>(cells)?,
-            _ => measure::<3>(cells)?,
+        let line = match (dim, threads) {
+            (2, 1) => measure::<2>(cells)?,
+            (_, 1) => measure::<3>(cells)?,
+            (2, _) => measure_threads::<2>(cells, threads)?,
+            _ => measure_threads::<3>(cells, threads)?,
         };
         println!("ROW {line}");
         return Ok(());
@@ -104,26 +112,26 @@ fn main() -> Result<(), Failure> {
     let load = report::load_average();
     let mut step_rows = Vec::new();
     let mut factor_rows = Vec::new();
+    let mut thread_rows = Vec::new();
+    // the second table: all cores of the machine (simulate's default), if more than one
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     for case in &cases {
         parse_case(case)?;
         eprintln!("bench_step: {case} …");
-        let out = Command::new(std::env::current_exe()?)
-            .args(["--child", case])
-            .output()?;
-        let text = String::from_utf8_lossy(&out.stdout);
-        match text.lines().find_map(|l| l.strip_prefix("ROW ")) {
-            Some(row) => {
+        match child_row(case, 1)? {
+            Ok(row) => {
                 let (steps, factors) = row.split_once(" ## ").ok_or("malformed child row")?;
                 step_rows.push(steps.to_string());
                 factor_rows.push(factors.to_string());
             }
-            None => {
-                let error = String::from_utf8_lossy(&out.stderr);
-                step_rows.push(format!(
-                    "| {case} | failed: {} |",
-                    error.lines().last().unwrap_or("no output")
-                ));
-            }
+            Err(failure) => step_rows.push(format!("| {case} | failed: {failure} |")),
+        }
+        if cores > 1 {
+            eprintln!("bench_step: {case} on {cores} threads …");
+            thread_rows.push(match child_row(case, cores)? {
+                Ok(row) => row,
+                Err(failure) => format!("| {case} | failed: {failure} |"),
+            });
         }
     }
     let command = format!(
@@ -131,11 +139,35 @@ fn main() -> Result<(), Failure> {
         if quick { " --quick" } else { "" },
         cases.iter().map(|c| format!(" {c}")).collect::<String>()
     );
-    let table = render(&command, &started, &load, &step_rows, &factor_rows);
+    let table = render(
+        &command,
+        &started,
+        &load,
+        &step_rows,
+        &factor_rows,
+        (cores, &thread_rows),
+    );
     print!("{table}");
     write_atomic(&output, |w| w.write_all(table.as_bytes()))?;
     eprintln!("written {}", output.display());
     Ok(())
+}
+
+/// Runs the child process of `case` on `threads` threads: its row, or the last line of its
+/// error output.
+fn child_row(case: &str, threads: usize) -> Result<Result<String, String>, Failure> {
+    let out = Command::new(std::env::current_exe()?)
+        .args(["--child", case, "--threads", &threads.to_string()])
+        .output()?;
+    let text = String::from_utf8_lossy(&out.stdout);
+    Ok(match text.lines().find_map(|l| l.strip_prefix("ROW ")) {
+        Some(row) => Ok(row.to_string()),
+        None => Err(String::from_utf8_lossy(&out.stderr)
+            .lines()
+            .last()
+            .unwrap_or("no output")
+            .to_string()),
+    })
 }
 
 fn parse_case(case: &str) -> Result<(usize, usize), Failure> {
@@ -293,21 +325,26 @@ fn measure_window<const D: usize>(
     })
 }
 
-/// Runs one case; returns its row of the step table and its row of the factor table,
-/// separated by ` ## `.
-fn measure<const D: usize>(cells: usize) -> Result<String, Failure> {
-    let name = format!("{D}d:{cells}");
-    let text = problem_text(D, cells);
-    let file = parse_problem_file(&text, &name)?;
-    let setup = ProblemSetup::<D>::new(file, Path::new(&name))?;
-    let mut simulation = Simulation::new(setup.problem.clone())?;
+/// The measured steps of a case, [`REPEATS`] times, with their reference solves.
+struct Windows {
+    /// The repetition with the fastest full step.
+    fastest: Window,
+    /// The fastest of all reference solves.
+    reference: f64,
+    /// Full step over the repetition's fastest solve, one per repetition, sorted.
+    ratios: Vec<f64>,
+}
+
+/// Runs [`WARM_STEPS`] steps, then the measured window [`REPEATS`] times from the same state.
+fn measure_windows<const D: usize>(
+    setup: &ProblemSetup<D>,
+    simulation: &mut Simulation<D>,
+) -> Result<Windows, Failure> {
     let space = simulation.space().clone();
     let contact = simulation.contact().clone();
     let line = ContactLine::new(&space, &contact);
     let quadrature = DomainQuadrature::new(&space, 2 * space.degree());
     let mut sums = RunningSums::new(contact.len());
-    let k = simulation.time_step();
-
     for _ in 0..WARM_STEPS {
         simulation.step()?;
     }
@@ -324,7 +361,7 @@ fn measure<const D: usize>(cells: usize) -> Result<String, Failure> {
     for _ in 0..REPEATS {
         simulation.set_state(start_state.clone())?;
         sums = start_sums.clone();
-        let window = measure_window(&setup, &mut simulation, &quadrature, line.axis, &mut sums)?;
+        let window = measure_window(setup, simulation, &quadrature, line.axis, &mut sums)?;
         let solver = simulation.velocity_operator().solver();
         let reference = best_of(REFERENCE_SOLVES, || solver.solve(&rhs));
         references.push(reference);
@@ -343,6 +380,55 @@ fn measure<const D: usize>(cells: usize) -> Result<String, Failure> {
     }
     let reference = references.iter().copied().fold(f64::INFINITY, f64::min);
     ratios.sort_by(f64::total_cmp);
+    Ok(Windows {
+        fastest: fastest.expect("REPEATS > 0"),
+        reference,
+        ratios,
+    })
+}
+
+/// Runs one case on `threads` threads; returns its row of the table of several threads.
+fn measure_threads<const D: usize>(cells: usize, threads: usize) -> Result<String, Failure> {
+    let name = format!("{D}d:{cells}");
+    let file = parse_problem_file(&problem_text(D, cells), &name)?;
+    let setup = ProblemSetup::<D>::new(file, Path::new(&name))?;
+    let mut simulation = Simulation::new(setup.problem.clone())?;
+    let Windows {
+        fastest,
+        reference,
+        ratios,
+    } = measure_windows(&setup, &mut simulation)?;
+    Ok(format!(
+        "| {name} | {threads} | {} | {} | {} | **{}** | {} | **{:.1}×** ({:.1}–{:.1}) |",
+        ms(fastest.loads),
+        ms(fastest.total),
+        ms(fastest.statistics),
+        ms(fastest.total + fastest.statistics),
+        ms(reference),
+        ratios[REPEATS / 2],
+        ratios[0],
+        ratios[REPEATS - 1],
+    ))
+}
+
+/// Runs one case; returns its row of the step table and its row of the factor table,
+/// separated by ` ## `.
+fn measure<const D: usize>(cells: usize) -> Result<String, Failure> {
+    let name = format!("{D}d:{cells}");
+    let text = problem_text(D, cells);
+    let file = parse_problem_file(&text, &name)?;
+    let setup = ProblemSetup::<D>::new(file, Path::new(&name))?;
+    let mut simulation = Simulation::new(setup.problem.clone())?;
+    let space = simulation.space().clone();
+    let k = simulation.time_step();
+    let size = simulation.velocity_operator().size();
+
+    let Windows {
+        fastest,
+        reference,
+        ratios,
+    } = measure_windows(&setup, &mut simulation)?;
+
     let Window {
         loads,
         velocity,
@@ -357,7 +443,7 @@ fn measure<const D: usize>(cells: usize) -> Result<String, Failure> {
         active_first,
         active_last,
         kkt,
-    } = fastest.expect("REPEATS > 0");
+    } = fastest;
     let rest = total - loads - velocity - damage;
     let per = |d: std::time::Duration| d.as_secs_f64() / MEASURED_STEPS as f64;
 
@@ -469,6 +555,7 @@ fn render(
     load: &str,
     steps: &[String],
     factors: &[String],
+    (threads, thread_rows): (usize, &[String]),
 ) -> String {
     let cpu = report::cpu_model();
     let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
@@ -525,6 +612,26 @@ fn render(
     let _ = writeln!(out, "|---|---|---|---|---|---|---|");
     for row in factors {
         let _ = writeln!(out, "{row}");
+    }
+    if !thread_rows.is_empty() {
+        let _ = writeln!(
+            out,
+            "\n## On {threads} threads\n\nThe same steps on all {threads} cores of the machine (`simulate`'s default): \
+             the loads in parallel chunks of cells, (5.1) and (5.2) at the same time (`rayon::join`: the damage step \
+             uses u_(n−1) and β_(n−1), not v_n), the row of `history.csv` in parallel chunks. ms per step, measured \
+             as above (fastest of {REPEATS} runs of the steps); *2 tri-solves* = one solve with the velocity factor, \
+             which is sequential (the same reference as above, measured again in this process); *ratio* as above. \
+             The target of issue 10 is read in the first table (one thread: the work of a step); this one shows \
+             what a run on this machine takes.\n"
+        );
+        let _ = writeln!(
+            out,
+            "| case | threads | loads | step | stats | full | 2 tri-solves | ratio |"
+        );
+        let _ = writeln!(out, "|---|---|---|---|---|---|---|---|");
+        for row in thread_rows {
+            let _ = writeln!(out, "{row}");
+        }
     }
     out
 }
