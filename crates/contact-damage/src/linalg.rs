@@ -553,7 +553,7 @@ const MAX_LANES: usize = 8;
 
 /// `max_i |v_i|` (0 for an empty slice; a NaN entry is ignored, as by `f64::max`).
 ///
-/// The running maximum is kept in [`MAX_LANES`] independent partial maxima, so that the loop
+/// The running maximum is kept in eight independent partial maxima, so that the loop
 /// is not one chain of dependent comparisons (each waiting for the one before) and
 /// vectorizes. A maximum does not depend on the order of its terms, so the value is bitwise
 /// that of the sequential fold `fold(0.0, |m, v| m.max(v.abs()))`.

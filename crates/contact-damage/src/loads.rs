@@ -372,23 +372,7 @@ impl<const D: usize> LoadQuadrature<D> {
                     }
                 }
             }
-            // ⟨φ + q, φ_a⟩ on the cell: the weighted sources of its points, one sum per node.
-            for (q, weighted) in weighted_sources.iter_mut().enumerate() {
-                let p = c * nq + q;
-                let supplied = if chunk.supply.is_empty() {
-                    0.0
-                } else {
-                    chunk.supply[p]
-                };
-                *weighted = chunk.weights[p] * (sources[p] + supplied);
-            }
-            for (a, node_values) in self.values_by_node.chunks_exact(nq).enumerate() {
-                let mut sum = 0.0;
-                for (weighted, value) in weighted_sources.iter().zip(node_values) {
-                    sum += weighted * value;
-                }
-                out[a * (D + 1) + D] += sum;
-            }
+            self.add_damage_sources(chunk, &sources, c, &mut weighted_sources, out);
         }
     }
 
@@ -461,23 +445,39 @@ impl<const D: usize> LoadQuadrature<D> {
                     }
                 }
             }
-            // ⟨φ + q, φ_a⟩ on the cell: the weighted sources of its points, one sum per node.
-            for (q, weighted) in weighted_sources.iter_mut().enumerate() {
-                let p = c * nq + q;
-                let supplied = if chunk.supply.is_empty() {
-                    0.0
-                } else {
-                    chunk.supply[p]
-                };
-                *weighted = chunk.weights[p] * (sources[p] + supplied);
+            self.add_damage_sources(chunk, &sources, c, &mut weighted_sources, out);
+        }
+    }
+
+    /// ⟨φ + q, φ_a⟩ on cell `c` of `chunk` added to its element vector `out` (the last of the
+    /// `D + 1` values of each node): the weighted sources of its points (`sources` = φ at the
+    /// points of the chunk, `weighted` a scratch of one value per point), one sum per node.
+    // inlined into both cell loops: as a call per cell the loads at 128² took about 3 % longer
+    #[inline(always)]
+    fn add_damage_sources(
+        &self,
+        chunk: &Chunk<'_, D>,
+        sources: &[f64],
+        c: usize,
+        weighted: &mut [f64],
+        out: &mut [f64],
+    ) {
+        let nq = weighted.len();
+        for (q, weighted) in weighted.iter_mut().enumerate() {
+            let p = c * nq + q;
+            let supplied = if chunk.supply.is_empty() {
+                0.0
+            } else {
+                chunk.supply[p]
+            };
+            *weighted = chunk.weights[p] * (sources[p] + supplied);
+        }
+        for (a, node_values) in self.values_by_node.chunks_exact(nq).enumerate() {
+            let mut sum = 0.0;
+            for (weighted, value) in weighted.iter().zip(node_values) {
+                sum += weighted * value;
             }
-            for (a, node_values) in self.values_by_node.chunks_exact(nq).enumerate() {
-                let mut sum = 0.0;
-                for (weighted, value) in weighted_sources.iter().zip(node_values) {
-                    sum += weighted * value;
-                }
-                out[a * (D + 1) + D] += sum;
-            }
+            out[a * (D + 1) + D] += sum;
         }
     }
 }
