@@ -530,7 +530,7 @@ impl BoxQpSolver {
         x: &mut [f64],
     ) -> Result<BoxQpStats> {
         self.check_problem(rhs, lower, upper, x)?;
-        let scale = rhs.iter().fold(1.0_f64, |acc, value| acc.max(value.abs()));
+        let scale = max_abs(rhs).max(1.0);
         let problem = Problem {
             rhs,
             lower,
@@ -1269,7 +1269,7 @@ pub fn box_qp_kkt_residual(
         rhs,
         lower,
         upper,
-        scale: rhs.iter().fold(1.0_f64, |acc, value| acc.max(value.abs())),
+        scale: max_abs(rhs).max(1.0),
         tie: 0.0,
     };
     if !problem.scale.is_finite() {
