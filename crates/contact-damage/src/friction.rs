@@ -97,6 +97,7 @@ use faer::prelude::*;
 use faer::{Accum, Conj};
 
 use crate::error::History;
+use crate::linalg::max_abs;
 use crate::{Error, Result};
 
 /// Armijo constant η of the Newton line search.
@@ -656,10 +657,6 @@ fn block_norm(block: &[f64]) -> f64 {
 
 fn dot(left: &[f64], right: &[f64]) -> f64 {
     left.iter().zip(right).map(|(a, b)| a * b).sum()
-}
-
-fn max_abs(values: &[f64]) -> f64 {
-    values.iter().fold(0.0, |acc, v| acc.max(v.abs()))
 }
 
 /// Block soft-thresholding y ↦ max(0, 1 − threshold/|y|) y, in place.

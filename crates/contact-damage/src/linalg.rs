@@ -573,6 +573,9 @@ pub fn max_abs(values: &[f64]) -> f64 {
 
 /// `max |v_i|` over the indices with `excluded[i] == false`, as [`max_abs`] (bitwise the
 /// sequential fold over those indices).
+///
+/// # Panics
+/// If `values` and `excluded` differ in length.
 pub fn max_abs_free(values: &[f64], excluded: &[bool]) -> f64 {
     assert_eq!(values.len(), excluded.len(), "one flag per value");
     let mut lanes = [0.0_f64; MAX_LANES];

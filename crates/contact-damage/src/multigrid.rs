@@ -916,6 +916,7 @@ fn product_rows(left: &Csr, right: &Csr, product: &mut Csr, marker: &mut [usize]
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
+    use crate::linalg::max_abs;
     use faer::sparse::Triplet;
 
     /// 5-point Laplacian plus a small mass shift on an m×m grid.
@@ -1164,10 +1165,6 @@ pub(crate) mod tests {
             }
         }
         Csr::from_symmetric(&SparseColMat::try_new_from_triplets(n, n, &triplets).unwrap())
-    }
-
-    fn max_abs(v: &[f64]) -> f64 {
-        v.iter().fold(0.0_f64, |m, x| m.max(x.abs()))
     }
 
     /// `max_i |(A x − b)_i|` over the rows `kept`.

@@ -1092,7 +1092,7 @@ impl BoxQpSolver {
         }
         let cap = 2 * free.min(n - free + 1) + 20;
         cg.residual.copy_from_slice(rhs);
-        if max_norm(&cg.residual) <= target {
+        if max_abs(&cg.residual) <= target {
             return Ok(());
         }
         self.precondition(
@@ -1120,7 +1120,7 @@ impl BoxQpSolver {
                 solution[i] += alpha * cg.search[i];
                 cg.residual[i] -= alpha * cg.image[i];
             }
-            if max_norm(&cg.residual) <= target {
+            if max_abs(&cg.residual) <= target {
                 break;
             }
             cg.previous.copy_from_slice(&cg.preconditioned);
@@ -1409,7 +1409,7 @@ fn multigrid_cg(
     let n = rhs.len();
     solution.fill(0.0);
     cg.residual.copy_from_slice(rhs);
-    if max_norm(&cg.residual) <= target {
+    if max_abs(&cg.residual) <= target {
         return Ok(());
     }
     let mut precondition = |residual: &[f64], z: &mut [f64], stats: &mut BoxQpStats| {
@@ -1436,7 +1436,7 @@ fn multigrid_cg(
             solution[i] += alpha * cg.search[i];
             cg.residual[i] -= alpha * cg.image[i];
         }
-        if max_norm(&cg.residual) <= target {
+        if max_abs(&cg.residual) <= target {
             break;
         }
         precondition(&cg.residual, &mut cg.preconditioned, stats);
@@ -1481,11 +1481,6 @@ fn gauss_seidel_sweep(
         }
         z[i] += sum / diagonal[i];
     }
-}
-
-/// `max_i |v_i|`.
-fn max_norm(v: &[f64]) -> f64 {
-    max_abs(v)
 }
 
 /// `g = A x − b` from the rows of `A`.
