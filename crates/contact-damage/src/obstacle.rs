@@ -1929,10 +1929,7 @@ mod tests {
                 }
             }
         }
-    }
 
-    proptest! {
-        #![proptest_config(ProptestConfig::with_cases(64))]
         /// The sweeps skip the indices marked settled and the gradient is recomputed on the
         /// stale rows only: the iterates and gradients are those of sweeps that visit every
         /// index and of a gradient computed on every row.
