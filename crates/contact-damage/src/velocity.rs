@@ -809,9 +809,8 @@ impl<const D: usize> VelocityOperator<D> {
                 }
             }
         }
-        let largest = |values: &[f64]| values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let friction_force = (0..self.contact.len())
-            .map(|k| weights[k] * largest(&multipliers[k * g..(k + 1) * g]))
+            .map(|k| weights[k] * max_abs(&multipliers[k * g..(k + 1) * g]))
             .fold(0.0f64, f64::max);
         let scale = load_scale
             .max(force_scale)
@@ -917,9 +916,7 @@ impl<const D: usize> VelocityOperator<D> {
         } else {
             None
         };
-        self.lifting_scale = lifting
-            .as_ref()
-            .map_or(0.0, |l| l.iter().fold(0.0f64, |m, v| m.max(v.abs())));
+        self.lifting_scale = lifting.as_ref().map_or(0.0, |l| max_abs(l));
         // F in the system frame, with the explicit normal compliance load −ω_a p_ν on the
         // normal unknown (the implicit one is part of N(v) instead).
         let mut load = self.to_system(data.load);
