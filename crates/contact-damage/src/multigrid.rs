@@ -45,6 +45,9 @@
 //! A symmetric V(1,1)-cycle: forward Gauss–Seidel before the coarse correction, backward
 //! after it, exact solve on the coarsest level; with a zero start it is a symmetric positive
 //! definite operator on the free indices, used as the preconditioner of conjugate gradients.
+//! The residuals and transfers of a level are computed row by row, in parallel tasks on a
+//! pool of several threads ([`for_each_row`], bitwise the same result); the sweeps are
+//! sequential.
 //!
 //! # References
 //! - P. Vaněk, J. Mandel, M. Brezina, *Algebraic multigrid by smoothed aggregation for second
@@ -55,6 +58,31 @@
 //!   (2009) 1–44.
 
 use faer::sparse::SparseColMat;
+use rayon::prelude::*;
+
+/// Rows per task of the row-parallel passes ([`for_each_row`]).
+const PARALLEL_ROWS: usize = 8192;
+
+/// `value(i, &mut y[i])` for every row `i`: in tasks of [`PARALLEL_ROWS`] rows when the
+/// thread pool has more than one thread and `y` has at least two tasks' worth of rows, on
+/// the calling thread otherwise. Every entry is computed by the same expression either way,
+/// so the result is bitwise the same on any number of threads.
+pub(crate) fn for_each_row<T: Send>(y: &mut [T], value: impl Fn(usize, &mut T) + Sync) {
+    if y.len() >= 2 * PARALLEL_ROWS && rayon::current_num_threads() > 1 {
+        y.par_chunks_mut(PARALLEL_ROWS)
+            .enumerate()
+            .for_each(|(chunk, entries)| {
+                let first = chunk * PARALLEL_ROWS;
+                for (k, entry) in entries.iter_mut().enumerate() {
+                    value(first + k, entry);
+                }
+            });
+    } else {
+        for (i, entry) in y.iter_mut().enumerate() {
+            value(i, entry);
+        }
+    }
+}
 
 /// Largest number of unknowns solved directly on the coarsest level.
 pub(crate) const COARSEST_SIZE: usize = 64;
@@ -168,18 +196,23 @@ impl Csr {
 
     /// `y = A x`.
     pub(crate) fn multiply(&self, x: &[f64], y: &mut [f64]) {
-        for (i, target) in y.iter_mut().enumerate() {
+        for_each_row(y, |i, target| {
             let (columns, values) = self.row(i);
             *target = columns.iter().zip(values).map(|(&j, a)| a * x[j]).sum();
-        }
+        });
     }
 
     /// `y_i = (A x)_i` on the rows with `keep(i)`, `y_i = 0` on the others (whose rows are
     /// not read).
-    pub(crate) fn multiply_rows(&self, x: &[f64], y: &mut [f64], keep: impl Fn(usize) -> bool) {
-        for (i, target) in y.iter_mut().enumerate() {
+    pub(crate) fn multiply_rows(
+        &self,
+        x: &[f64],
+        y: &mut [f64],
+        keep: impl Fn(usize) -> bool + Sync,
+    ) {
+        for_each_row(y, |i, target| {
             *target = if keep(i) { self.row_product(i, x) } else { 0.0 };
-        }
+        });
     }
 
     /// The transpose.
@@ -503,13 +536,15 @@ impl Hierarchy {
             level.solution.fill(0.0);
             level.sweep(false);
             // r = b − Ã_l z on the rows kept by the truncation (the others are zero rows).
-            for i in 0..level.residual.len() {
-                level.residual[i] = if level.diagonal[i] > 0.0 {
-                    level.rhs[i] - level.matrix.row_product(i, &level.solution)
+            let (diagonal, rhs, matrix, solution) =
+                (&level.diagonal, &level.rhs, &level.matrix, &level.solution);
+            for_each_row(&mut level.residual, |i, residual| {
+                *residual = if diagonal[i] > 0.0 {
+                    rhs[i] - matrix.row_product(i, solution)
                 } else {
                     0.0
                 };
-            }
+            });
         }
         {
             let (fine_levels, coarse_levels) = self.levels.split_at_mut(l + 1);
@@ -529,16 +564,17 @@ impl Hierarchy {
                 .as_ref()
                 .expect("not the coarsest")
                 .prolongation;
-            for i in 0..level.solution.len() {
-                if level.diagonal[i] > 0.0 {
+            let diagonal = &level.diagonal;
+            for_each_row(&mut level.solution, |i, solution| {
+                if diagonal[i] > 0.0 {
                     let (columns, values) = prolongation.row(i);
-                    level.solution[i] += columns
+                    *solution += columns
                         .iter()
                         .zip(values)
                         .map(|(&j, p)| p * coarse.solution[j])
                         .sum::<f64>();
                 }
-            }
+            });
             level.sweep(true);
         }
     }
