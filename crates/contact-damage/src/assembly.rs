@@ -42,18 +42,16 @@ pub fn field_strain<const D: usize>(
     gradients: &[SVector<f64, D>],
     nodal: &[f64],
 ) -> Tensor<D> {
-    let mut grad = Tensor::<D>::zeros();
-    for (a, &node) in nodes.iter().enumerate() {
+    let mut grad = [[0.0; D]; D];
+    for (&node, gradient) in nodes.iter().zip(gradients) {
+        let values = &nodal[node * D..node * D + D];
         for i in 0..D {
-            let value = nodal[node * D + i];
-            if value != 0.0 {
-                for k in 0..D {
-                    grad[(i, k)] += value * gradients[a][k];
-                }
+            for k in 0..D {
+                grad[i][k] += values[i] * gradient[k];
             }
         }
     }
-    (grad + grad.transpose()) * 0.5
+    Tensor::<D>::from_fn(|i, k| (grad[i][k] + grad[k][i]) * 0.5)
 }
 
 /// Element matrix of the linearized viscosity operator, with local dof (a, i) = a·D + i:
@@ -245,4 +243,58 @@ pub fn add_facet_integrals<const D: usize>(
         integrand(x, normal, out);
     }
     facets.scatter(space, components, &data, global);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn unit<const D: usize>(k: usize) -> SVector<f64, D> {
+        SVector::<f64, D>::from_fn(|i, _| if i == k { 1.0 } else { 0.0 })
+    }
+
+    /// The P1 basis gradients of the reference simplex: −(1, …, 1), then e_1, …, e_D.
+    fn reference_gradients<const D: usize>() -> Vec<SVector<f64, D>> {
+        std::iter::once(SVector::<f64, D>::repeat(-1.0))
+            .chain((0..D).map(unit::<D>))
+            .collect()
+    }
+
+    /// u(x) = B x + c at the vertices of the reference simplex (node-major, nodes 0..=D).
+    fn affine_nodal<const D: usize>(b: &Tensor<D>, c: &SVector<f64, D>) -> Vec<f64> {
+        std::iter::once(SVector::<f64, D>::zeros())
+            .chain((0..D).map(unit::<D>))
+            .flat_map(|x| (b * x + c).iter().copied().collect::<Vec<_>>())
+            .collect()
+    }
+
+    fn check<const D: usize>(b: Tensor<D>, c: SVector<f64, D>) {
+        let nodes: Vec<usize> = (0..=D).collect();
+        let strain = field_strain(&nodes, &reference_gradients::<D>(), &affine_nodal(&b, &c));
+        assert_eq!(strain, (b + b.transpose()) * 0.5);
+    }
+
+    /// ε(u) of a P1 field that interpolates an affine u(x) = Bx + c is sym(B), exactly (the
+    /// data are small integers), also where nodal values vanish (c = 0 makes node 0 zero,
+    /// rows of B that vanish make components zero) or are −0.
+    #[test]
+    fn field_strain_is_the_symmetric_gradient_of_an_affine_field() {
+        check::<2>(
+            Tensor::<2>::new(1.0, -2.0, 3.0, 4.0),
+            SVector::<f64, 2>::new(5.0, -1.0),
+        );
+        check::<2>(
+            Tensor::<2>::new(0.0, 0.0, 3.0, -4.0),
+            SVector::<f64, 2>::zeros(),
+        );
+        check::<2>(
+            Tensor::<2>::new(-0.0, 2.0, 0.0, 0.0),
+            SVector::<f64, 2>::new(-0.0, 0.0),
+        );
+        check::<3>(
+            Tensor::<3>::new(1.0, 2.0, -3.0, 0.0, 5.0, 6.0, -7.0, 8.0, 0.0),
+            SVector::<f64, 3>::new(1.0, 0.0, -2.0),
+        );
+        check::<3>(Tensor::<3>::zeros(), SVector::<f64, 3>::zeros());
+    }
 }
