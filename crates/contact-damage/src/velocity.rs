@@ -1341,7 +1341,7 @@ impl<const D: usize> VelocityOperator<D> {
         let m = self.tangential.len();
         let first = z.len() - m;
         let z_c = Mat::<f64>::from_fn(m, 1, |p, _| z[first + p]);
-        let condensed = &trailing.factor * &z_c;
+        let condensed = sequential_product(trailing.factor.as_ref(), z_c.as_ref());
         let mut reduced_rhs = vec![0.0; m];
         for (p, &i) in trailing.index.iter().enumerate() {
             reduced_rhs[i] = condensed[(p, 0)];
@@ -1393,7 +1393,7 @@ impl<const D: usize> VelocityOperator<D> {
     fn schur_times_tangential(&self, v: &[f64]) -> Vec<f64> {
         let m = self.tangential.len();
         let v_c = Mat::<f64>::from_fn(m, 1, |i, _| v[self.tangential[i]]);
-        let product = &self.schur * &v_c;
+        let product = sequential_product(self.schur.as_ref(), v_c.as_ref());
         (0..m).map(|i| product[(i, 0)]).collect()
     }
 
@@ -1465,6 +1465,23 @@ fn add_to_diagonal(matrix: &mut SparseColMat<usize, f64>, index: usize, value: f
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
+}
+
+/// `A B` on the calling thread. faer's `*` takes the global parallelism, and its parallel
+/// matrix–vector product sums in an order that depends on the number of threads; the products
+/// of every step go through this one, so that a run gives the same bits on any number of
+/// threads (`simulate`'s `run_is_the_same_on_one_and_two_threads`).
+fn sequential_product(a: faer::MatRef<'_, f64>, b: faer::MatRef<'_, f64>) -> Mat<f64> {
+    let mut product = Mat::<f64>::zeros(a.nrows(), b.ncols());
+    faer::linalg::matmul::matmul(
+        product.as_mut(),
+        faer::Accum::Replace,
+        a,
+        b,
+        1.0,
+        faer::Par::Seq,
+    );
+    product
 }
 
 #[cfg(test)]
