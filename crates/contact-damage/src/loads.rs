@@ -230,7 +230,8 @@ impl<const D: usize> LoadQuadrature<D> {
         // One entry into the thread pool for all waves (every parallel call from outside it
         // waits for a pool thread: tens of µs per wave).
         rayon::scope(|_| {
-            let mut pending: Option<(usize, usize)> = None;
+            // the wave whose element vectors wait to be summed: (first cell, cells, wave)
+            let mut pending: Option<(usize, usize, usize)> = None;
             for (wave, first_cell) in (0..cells).step_by(wave_cells).enumerate() {
                 let count = wave_cells.min(cells - first_cell);
                 let [even, odd] = &mut buffers;
@@ -241,7 +242,7 @@ impl<const D: usize> LoadQuadrature<D> {
                 };
                 let current = &mut current[..count * local];
                 match pending {
-                    Some((first, count)) => {
+                    Some((first, count, _)) => {
                         rayon::join(
                             || {
                                 sum(
@@ -256,10 +257,9 @@ impl<const D: usize> LoadQuadrature<D> {
                     }
                     None => compute(first_cell, current),
                 }
-                pending = Some((first_cell, count));
+                pending = Some((first_cell, count, wave));
             }
-            if let Some((first, count)) = pending {
-                let wave = (cells - 1) / wave_cells;
+            if let Some((first, count, wave)) = pending {
                 sum(
                     first,
                     &buffers[wave % 2][..count * local],
