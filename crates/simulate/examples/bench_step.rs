@@ -621,8 +621,8 @@ fn render(
              uses u_(n−1) and β_(n−1), not v_n), the row of `history.csv` in parallel chunks. ms per step, measured \
              as above (fastest of {REPEATS} runs of the steps); *2 tri-solves* = one solve with the velocity factor, \
              which is sequential (the same reference as above, measured again in this process); *ratio* as above. \
-             The target of issue 10 is read in the first table (one thread: the work of a step); this one shows \
-             what a run on this machine takes.\n"
+             The first table is the work of a step (one thread); this one is what a step of a run takes on this \
+             machine as `simulate` runs by default. The README states which cases are within the target in each.\n"
         );
         let _ = writeln!(
             out,
