@@ -1470,7 +1470,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 /// `A B` on the calling thread. faer's `*` takes the global parallelism, and its parallel
 /// matrix–vector product sums in an order that depends on the number of threads; the products
 /// of every step go through this one, so that a run gives the same bits on any number of
-/// threads (`simulate`'s `run_is_the_same_on_one_and_two_threads`).
+/// threads (`simulate`'s `run_is_the_same_on_one_two_and_three_threads`).
 fn sequential_product(a: faer::MatRef<'_, f64>, b: faer::MatRef<'_, f64>) -> Mat<f64> {
     let mut product = Mat::<f64>::zeros(a.nrows(), b.ncols());
     faer::linalg::matmul::matmul(
