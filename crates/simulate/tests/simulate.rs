@@ -340,9 +340,15 @@ fn run_is_the_same_on_one_two_and_three_threads() {
     assert_eq!(reference_state.step, 6);
     for threads in ["2", "3"] {
         let out = run(threads);
+        let rows = history(&out);
+        assert_eq!(
+            rows.lines().count(),
+            reference.lines().count(),
+            "--threads {threads}: history.csv has another number of lines"
+        );
         let first_difference = reference
             .lines()
-            .zip(history(&out).lines())
+            .zip(rows.lines())
             .position(|(x, y)| x != y);
         assert_eq!(
             first_difference, None,
