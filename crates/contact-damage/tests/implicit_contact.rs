@@ -2,6 +2,10 @@
 //! above the explicit contact stability limit (k c_ν ω_a ≫ the viscous stiffness) relaxes to the
 //! quasi-static equilibrium, every step exact (KKT ≤ 1e-10), and the equilibrium reached does
 //! not depend on k; the explicit treatment at the same step does not get there.
+//!
+//! "At rest" and "the same equilibrium" are measured relative to the largest displacement; the
+//! bounds are the observed values with a margin of 5 to 70 (stated at each): what they measure is
+//! what is left of the transient at the final time, which the runs decide, not rounding.
 
 mod common;
 
@@ -42,11 +46,11 @@ fn largest(values: &[f64]) -> f64 {
     values.iter().fold(0.0f64, |m, v| m.max(v.abs()))
 }
 
-/// Two equilibria agree to 1e-6 relative to the displacement.
-fn assert_same_displacement(first: &[f64], second: &[f64]) {
+/// Two equilibria agree to `tolerance` relative to the displacement.
+fn assert_same_displacement(first: &[f64], second: &[f64], tolerance: f64) {
     let difference: Vec<f64> = first.iter().zip(second).map(|(a, b)| a - b).collect();
     assert!(
-        largest(&difference) <= 1e-6 * largest(first),
+        largest(&difference) <= tolerance * largest(first),
         "equilibria differ by {:e} (displacement {:e})",
         largest(&difference),
         largest(first)
@@ -75,17 +79,19 @@ fn implicit_stiff_contact_relaxes_to_equilibrium_at_any_step() {
         assert!(worst_kkt <= 1e-10, "KKT residual {worst_kkt:e}");
         assert!(in_contact > 0, "the square must rest on the foundation");
         let state = simulation.state();
-        // equilibrium: the velocity has decayed to nothing against the displacement
+        // equilibrium: the velocity has decayed to nothing against the displacement (observed:
+        // 1.1e-12 at k = 0.5, 8.5e-11 at k = 0.25)
         assert!(
-            largest(&state.velocity) <= 1e-6 * largest(&state.displacement),
+            largest(&state.velocity) <= 1e-9 * largest(&state.displacement),
             "velocity {:e} vs displacement {:e}",
             largest(&state.velocity),
             largest(&state.displacement)
         );
         finals.push(state.displacement.clone());
     }
-    // the quasi-static equilibrium does not depend on the step
-    assert_same_displacement(&finals[0], &finals[1]);
+    // the quasi-static equilibrium does not depend on the step (observed: 6.3e-11, the
+    // remaining transient of the k = 0.25 run)
+    assert_same_displacement(&finals[0], &finals[1], 1e-9);
 }
 
 #[test]
@@ -95,16 +101,20 @@ fn explicit_stiff_contact_at_the_same_step_is_not_at_equilibrium() {
     let mut simulation = pressed_square(40, 20.0, 1e6, 0.4, ContactTreatment::Explicit);
     simulation.run(|_| Ok(())).unwrap();
     let state = simulation.state();
+    // observed: the velocity is 2.3 times the displacement (the rest bound above is 1e-9)
     assert!(
-        largest(&state.velocity) > 1e-6 * largest(&state.displacement),
-        "the explicit scheme reached equilibrium at k c_ν ≫ 1"
+        largest(&state.velocity) > 0.1 * largest(&state.displacement),
+        "the explicit scheme reached equilibrium at k c_ν ≫ 1: velocity {:e} vs displacement {:e}",
+        largest(&state.velocity),
+        largest(&state.displacement)
     );
 }
 
 /// Where the explicit scheme is stable (c_ν = 1, k = 0.1; at c_ν = 10, k = 0.25 the explicit run
-/// still oscillates), both treatments relax to the same static equilibrium (observed: equal to
-/// 1e-15 relative): an independent check of the implicit contact force against the
-/// paper's scheme.
+/// still oscillates), both treatments relax to the same static equilibrium: an independent
+/// check of the implicit contact force against the paper's scheme. Observed at T = 100: velocity
+/// 7.3e-16 (explicit) and 3.4e-13 (implicit) of the displacement, equilibria equal to 1.4e-13
+/// (the implicit run's remaining transient); asserted: 1e-11 for both.
 #[test]
 fn implicit_and_explicit_contact_reach_the_same_equilibrium_where_both_are_stable() {
     let finals: Vec<Vec<f64>> = [ContactTreatment::Explicit, ContactTreatment::Implicit]
@@ -113,11 +123,16 @@ fn implicit_and_explicit_contact_reach_the_same_equilibrium_where_both_are_stabl
             let mut simulation = pressed_square(1000, 100.0, 1.0, 0.0, treatment);
             simulation.run(|_| Ok(())).unwrap();
             let state = simulation.state();
-            assert!(largest(&state.velocity) <= 1e-6 * largest(&state.displacement));
+            assert!(
+                largest(&state.velocity) <= 1e-11 * largest(&state.displacement),
+                "{treatment:?}: velocity {:e} vs displacement {:e}",
+                largest(&state.velocity),
+                largest(&state.displacement)
+            );
             state.displacement.clone()
         })
         .collect();
-    assert_same_displacement(&finals[0], &finals[1]);
+    assert_same_displacement(&finals[0], &finals[1], 1e-11);
 }
 
 /// With friction the implicit step is exact too (the bound stays explicit) and the body settles.
@@ -133,7 +148,13 @@ fn implicit_stiff_contact_with_friction_is_exact_and_settles() {
         .unwrap();
     assert!(worst_kkt <= 1e-10, "KKT residual {worst_kkt:e}");
     let state = simulation.state();
-    assert!(largest(&state.velocity) <= 1e-6 * largest(&state.displacement));
+    // observed: 1.8e-12
+    assert!(
+        largest(&state.velocity) <= 1e-11 * largest(&state.displacement),
+        "velocity {:e} vs displacement {:e}",
+        largest(&state.velocity),
+        largest(&state.displacement)
+    );
 }
 
 /// `DamageEvolution::Frozen` is the pure contact problem: β stays β_0 = 1 even under a damage
@@ -175,10 +196,9 @@ fn frozen_damage_is_the_model_without_damage() {
     let (undamaged, _) = run(false);
     assert_eq!(frozen_iterations, 0, "a damage step was solved");
     assert!(frozen.damage.iter().all(|&beta| beta == 1.0));
-    assert!(undamaged
-        .damage
-        .iter()
-        .all(|&beta| (beta - 1.0).abs() <= 1e-14));
-    assert_same_displacement(&undamaged.displacement, &frozen.displacement);
+    // without a source, β = 1 already satisfies the damage step's stop test, which returns it
+    // unchanged: both runs solve the same velocity steps, bit for bit (observed)
+    assert!(undamaged.damage.iter().all(|&beta| beta == 1.0));
+    assert_eq!(undamaged.displacement, frozen.displacement);
     assert!(largest(&frozen.displacement) > 0.0);
 }

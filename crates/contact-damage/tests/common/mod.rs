@@ -2,6 +2,7 @@
 #![allow(dead_code)]
 
 use contact_damage::assembly::{field_strain, physical_gradients};
+use contact_damage::contact::ContactNodes;
 use contact_damage::laws::{
     DamageSourceFn, DamagedHooke, LinearViscosity, NormalComplianceCoulomb, Tensor, Viscosity,
 };
@@ -219,4 +220,140 @@ pub fn internal_force<const D: usize>(
         }
     }
     force
+}
+
+/// The data of one velocity step (5.1) as a test knows them (Cartesian, node-major): what the
+/// KKT conditions are recomputed from in [`velocity_kkt`].
+pub struct VelocityProblem<'a, const D: usize> {
+    pub space: &'a LagrangeSpace<D>,
+    pub law: &'a dyn Viscosity<D>,
+    pub contact: &'a ContactNodes<D>,
+    /// The load F without the normal compliance.
+    pub load: &'a [f64],
+    /// p_ν per contact node.
+    pub normal_pressure: &'a [f64],
+    /// The friction bound s per contact node.
+    pub friction_bound: &'a [f64],
+    /// The constrained unknowns (Γ1).
+    pub constrained: &'a [bool],
+    /// The prescribed velocity p_c of each constrained unknown (ignored on free ones).
+    pub prescribed: &'a [f64],
+}
+
+/// The KKT conditions of the velocity step (5.1) at (v, λ), each as a relative residual.
+#[derive(Debug, Clone, Copy)]
+pub struct VelocityKkt {
+    /// max over the free unknowns of |N(v) − F + Σ_a ω_a p_a ν_a + Σ_a ω_a s_a Σ_i λ_a,i t_a,i|,
+    /// relative to the largest force it balances: F, N(v) and the force N(v_Γ1) of the
+    /// constrained velocities alone on the free unknowns, the contact forces.
+    pub stationarity: f64,
+    /// max over the constrained unknowns of |v_c − p_c|, relative to the largest |v|.
+    pub prescribed: f64,
+    /// max_a (|λ_a| − 1)₊.
+    pub dual_feasibility: f64,
+    /// max over the slipping nodes (s_a > 0, v_τ(a) ≠ 0) of |λ_a − v_τ(a)/|v_τ(a)||.
+    pub complementarity: f64,
+    /// Contact nodes with s_a > 0 and v_τ(a) = 0.
+    pub sticking: usize,
+    /// Contact nodes with s_a > 0 and v_τ(a) ≠ 0.
+    pub slipping: usize,
+}
+
+impl VelocityKkt {
+    /// The largest of the four residuals.
+    pub fn residual(&self) -> f64 {
+        self.stationarity
+            .max(self.prescribed)
+            .max(self.dual_feasibility)
+            .max(self.complementarity)
+    }
+}
+
+/// The KKT conditions of (5.1), J(v) = Σ_K ∫_K Φ(ε(v)) − ⟨F, v⟩ + Σ_a ω_a s_a |v_τ(a)| minimized
+/// with v_c = p_c on Γ1, recomputed from the problem data alone: N(v) by [`internal_force`] (this
+/// file's quadrature loop over the law's stress), the contact forces from the weights ω_a and
+/// the frames (ν_a, t_a,1, …) of the contact nodes, in the Cartesian frame. A tangential speed
+/// below 1e-13 of the largest |v| is a stick (v_τ(a) = 0 up to the rounding of the frame).
+pub fn velocity_kkt<const D: usize>(
+    problem: &VelocityProblem<'_, D>,
+    velocity: &[f64],
+    multipliers: &[f64],
+) -> VelocityKkt {
+    let largest =
+        |values: &mut dyn Iterator<Item = f64>| values.fold(0.0f64, |m, x| m.max(x.abs()));
+    let force = internal_force(problem.space, problem.law, velocity);
+    let mut residual: Vec<f64> = force.iter().zip(problem.load).map(|(n, f)| n - f).collect();
+    let speed_scale = largest(&mut velocity.iter().copied());
+    let g = D - 1;
+    let mut contact_force: f64 = 0.0;
+    let mut kkt = VelocityKkt {
+        stationarity: 0.0,
+        prescribed: 0.0,
+        dual_feasibility: 0.0,
+        complementarity: 0.0,
+        sticking: 0,
+        slipping: 0,
+    };
+    for (k, &node) in problem.contact.nodes.iter().enumerate() {
+        let frame = &problem.contact.frames[k];
+        let weight = problem.contact.weights[k];
+        let lambda = &multipliers[k * g..(k + 1) * g];
+        let v = SVector::<f64, D>::from_column_slice(&velocity[node * D..node * D + D]);
+        let mut traction = frame.column(0) * (weight * problem.normal_pressure[k]);
+        for (i, l) in lambda.iter().enumerate() {
+            traction += frame.column(1 + i) * (weight * problem.friction_bound[k] * l);
+        }
+        for i in 0..D {
+            residual[node * D + i] += traction[i];
+        }
+        contact_force = contact_force
+            .max(weight * problem.normal_pressure[k])
+            .max(weight * problem.friction_bound[k] * largest(&mut lambda.iter().copied()));
+        let norm = lambda.iter().map(|l| l * l).sum::<f64>().sqrt();
+        kkt.dual_feasibility = kkt.dual_feasibility.max(norm - 1.0);
+        let tangential: Vec<f64> = (0..g).map(|i| frame.column(1 + i).dot(&v)).collect();
+        let speed = tangential.iter().map(|t| t * t).sum::<f64>().sqrt();
+        if problem.friction_bound[k] > 0.0 {
+            if speed > 1e-13 * speed_scale {
+                kkt.slipping += 1;
+                for (l, t) in lambda.iter().zip(&tangential) {
+                    kkt.complementarity = kkt.complementarity.max((l - t / speed).abs());
+                }
+            } else {
+                kkt.sticking += 1;
+            }
+        }
+    }
+    let free = |dof: &usize| !problem.constrained[*dof];
+    let n = velocity.len();
+    // the force of the constrained velocities alone on the free unknowns (a body moved by its
+    // support only has no other force to compare with)
+    let lifted: Vec<f64> = (0..n)
+        .map(|dof| if free(&dof) { 0.0 } else { velocity[dof] })
+        .collect();
+    let lifting = internal_force(problem.space, problem.law, &lifted);
+    let scale = largest(&mut (0..n).filter(free).map(|dof| problem.load[dof]))
+        .max(largest(&mut (0..n).filter(free).map(|dof| force[dof])))
+        .max(largest(&mut (0..n).filter(free).map(|dof| lifting[dof])))
+        .max(contact_force)
+        .max(f64::MIN_POSITIVE);
+    kkt.stationarity = largest(&mut (0..n).filter(free).map(|dof| residual[dof])) / scale;
+    kkt.prescribed = largest(
+        &mut (0..n)
+            .filter(|dof| problem.constrained[*dof])
+            .map(|dof| velocity[dof] - problem.prescribed[dof]),
+    ) / speed_scale.max(f64::MIN_POSITIVE);
+    kkt
+}
+
+/// The constrained unknowns of [`contact_damage::velocity::VelocityOperator::new`]: every
+/// component of every node of Γ1.
+pub fn clamped_unknowns<const D: usize>(space: &LagrangeSpace<D>) -> Vec<bool> {
+    let mut constrained = vec![false; space.num_nodes() * D];
+    for node in space.boundary_nodes(BoundaryPart::Dirichlet) {
+        for i in 0..D {
+            constrained[node * D + i] = true;
+        }
+    }
+    constrained
 }

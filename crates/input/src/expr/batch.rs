@@ -50,14 +50,17 @@ impl Program {
         registers: &mut Vec<f64>,
         copy_output_variables: bool,
     ) {
-        #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            // SAFETY: the processor has AVX2 (checked just above).
-            return unsafe {
+        let path = batch_path();
+        #[cfg(test)]
+        tests::LAST_PATH.with(|last| last.set(Some(path)));
+        match path {
+            // SAFETY: `batch_path` is `Avx2` only where the processor has AVX2.
+            #[cfg(target_arch = "x86_64")]
+            BatchPath::Avx2 => unsafe {
                 self.eval_columns_avx2(inputs, count, registers, copy_output_variables)
-            };
+            },
+            _ => self.eval_columns(inputs, count, registers, copy_output_variables),
         }
-        self.eval_columns(inputs, count, registers, copy_output_variables)
     }
 
     /// [`Program::eval_batch_columns`] compiled for AVX2: the loops over a column take four
@@ -69,7 +72,7 @@ impl Program {
     /// The processor must support AVX2.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn eval_columns_avx2(
+    pub(super) unsafe fn eval_columns_avx2(
         &self,
         inputs: &Inputs<'_>,
         count: usize,
@@ -204,6 +207,27 @@ impl Program {
     }
 }
 
+/// The loop of [`Program::eval_batch_columns`]: the one compiled for AVX2, or the one for the
+/// x86-64 baseline (and every other processor).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum BatchPath {
+    /// `Program::eval_columns_avx2`, on x86-64 processors with AVX2 (detected at run time).
+    #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+    Avx2,
+    /// [`Program::eval_columns`] compiled for the target's own features.
+    Baseline,
+}
+
+/// The loop [`Program::eval_batch_columns`] takes on this processor.
+#[inline]
+pub(super) fn batch_path() -> BatchPath {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        return BatchPath::Avx2;
+    }
+    BatchPath::Baseline
+}
+
 /// The columns of a program's variables at the points of a batch, in the order of the
 /// variables: the direct columns (`count` values each), then the columns of `block` (`count`
 /// values each, one after the other: the cached frontier of a [`super::SplitProgram`]), then
@@ -330,8 +354,14 @@ fn powi(a: f64, n: i32) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::powi;
+pub(super) mod tests {
+    use super::{powi, BatchPath};
+    use std::cell::Cell;
+
+    thread_local! {
+        /// The loop the last [`super::Program::eval_batch_columns`] of this thread took.
+        pub(in super::super) static LAST_PATH: Cell<Option<BatchPath>> = const { Cell::new(None) };
+    }
 
     #[test]
     fn inlined_powers_are_bitwise_those_of_powi() {
