@@ -1,5 +1,6 @@
 //! The load data of Problem P as fields evaluated in batches: f0 (2.3), f2 (2.6), and the extra
-//! data of manufactured solutions (f3 on Γ3, the damage supply q and flux κ ∂β/∂ν, SPEC §4).
+//! data of manufactured solutions (f3 on Γ3, the damage supply q and flux κ ∂β/∂ν,
+//! docs/model.md §5).
 //!
 //! The scheme evaluates each field once per step over all quadrature points of a chunk of cells
 //! (or over all quadrature points of a boundary part), so that an implementation can amortize

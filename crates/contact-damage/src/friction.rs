@@ -1,7 +1,7 @@
 //! Exact solver for the condensed Tresca-friction problem of the velocity step (5.1).
 //!
 //! In the velocity step (5.1) the friction bound s = p_τ(u_{n−1,ν} − g) is known (the coupling is
-//! explicit, see the specification), so (5.1) is the minimization of a strongly convex quadratic
+//! explicit, see docs/model.md §3), so (5.1) is the minimization of a strongly convex quadratic
 //! plus a weighted sum of Euclidean norms of the nodal tangential velocities on Γ3 (nodal
 //! quadrature of the friction term j of (3.14), nodal tangent frames). After the interior
 //! unknowns are condensed out (Schur complement), each step leaves the small dense problem

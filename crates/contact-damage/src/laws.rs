@@ -818,7 +818,8 @@ pub trait DamageModuli: Send + Sync {
 
 /// G(ε, β) = 2μ(β̄) ε + λ(β̄) tr(ε) I with β̄ = min(max(β, 0), 1) and user moduli μ(β), λ(β)
 /// ([`DamageModuli`]); [`DamagedHooke`] is the case μ(β) = μβ, λ(β) = λβ. With the clamp and
-/// moduli that are C¹ on [0, 1], G is Lipschitz in ε and, for bounded ε, in β, as (3.5) asks.
+/// moduli that are C¹ on [0, 1], G is Lipschitz in ε and, for bounded ε, in β; (3.5) asks for a
+/// constant uniform in ε, which a strain-weighted law cannot give (docs/model.md §2).
 ///
 /// `damage_derivative` is the one-sided derivative from inside [0, 1] (μ'(β), λ'(β) at the ends),
 /// zero outside [0, 1] where the clamp is active, as for [`DamagedHooke`].

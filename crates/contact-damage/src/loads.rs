@@ -3,8 +3,8 @@
 //! each part with their points, normals and weighted basis values) computed once per mesh, and
 //! per step the load vectors
 //!
-//! - velocity step (5.1): (f(t_n), w)_V = ∫_Ω f0·w + ∫_Γ2 f2·w (+ ∫_Γ3 f3·w, SPEC §4), minus
-//!   the elastic term (G(ε(u_{n−1}), β_{n−1}), ε(w))_Q;
+//! - velocity step (5.1): (f(t_n), w)_V = ∫_Ω f0·w + ∫_Γ2 f2·w (+ ∫_Γ3 f3·w, docs/model.md §5),
+//!   minus the elastic term (G(ε(u_{n−1}), β_{n−1}), ε(w))_Q;
 //! - damage step (5.2): (φ(ε(u_{n−1}), β_{n−1}) + q(t_n), ζ) + ∫_Γ κ ∂β/∂ν ζ.
 //!
 //! Each field is evaluated once per step over all quadrature points of a chunk of cells (rayon

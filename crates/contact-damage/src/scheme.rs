@@ -57,7 +57,7 @@ pub struct Data<const D: usize> {
     pub body_force: Option<VectorField<D>>,
     /// Traction f2 on Γ2 (2.6).
     pub traction: Option<BoundaryVectorField<D>>,
-    /// Extra traction f3 on Γ3 (used by manufactured solutions, SPEC §4): adds ∫_Γ3 f3·w.
+    /// Extra traction f3 on Γ3 (used by manufactured solutions, docs/model.md §5): adds ∫_Γ3 f3·w.
     pub contact_traction: Option<BoundaryVectorField<D>>,
     /// Extra damage supply q added to φ (manufactured solutions).
     pub damage_supply: Option<ScalarField<D>>,

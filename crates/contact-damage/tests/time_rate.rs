@@ -53,7 +53,7 @@ fn final_error<const D: usize>(mesh: Mesh<D>, steps: usize) -> f64 {
         model.damage_source.clone(),
     );
     // σ is constant in space: f0 = 0, f2 = σν on Γ2, and on the separated Γ3 the extra traction
-    // of SPEC §4 is f3 = σν (p_ν = p_τ = 0)
+    // of docs/model.md §5 is f3 = σν (p_ν = p_τ = 0)
     let traction = Arc::new(move |_x: &[f64; D], t: f64, n: &[f64; D]| {
         let sigma = viscosity.stress(&gradient(&velocity_coefficient::<D>(t)))
             + elasticity.stress(&gradient(&displacement_coefficient::<D>(t)), damage(t));

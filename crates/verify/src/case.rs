@@ -433,7 +433,8 @@ pub fn parse_case_file(text: &str, origin: &str) -> Result<CaseFile, VerifyError
 
 impl<const D: usize> Case<D> {
     /// Validates the case file and builds the laws and exact fields. Checks, at sampled points,
-    /// that u = 0 on Γ1, β ∈ [0, 1], |ξ_τ| < 1 on Γ3, η ∈ ∂ψ_K(β) and g ≥ 0 on Γ3.
+    /// that u = 0 on Γ1, β ∈ [0, 1], |ξ_τ| < 1 on Γ3, η ∈ ∂ψ_K(β) and that g is finite on Γ3
+    /// (a gap may move and be negative).
     pub fn new(file: CaseFile, origin: &str) -> Result<Self, VerifyError> {
         if file.dim != D {
             return Err(case_error(
@@ -752,7 +753,7 @@ impl<const D: usize> Case<D> {
         Ok(self.domain.mesh(level)?)
     }
 
-    /// The solver problem with the manufactured data (SPEC §4) for one run on the mesh of
+    /// The solver problem with the manufactured data (docs/model.md §5) for one run on the mesh of
     /// level `level` ([`Case::mesh`]).
     pub fn problem(
         &self,

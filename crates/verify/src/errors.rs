@@ -1,4 +1,4 @@
-//! The error quantity E(h, k) of Theorem 5.2 (SPEC §3), component by component:
+//! The error quantity E(h, k) of Theorem 5.2 (docs/model.md §4), component by component:
 //!
 //! - `displacement`: max_n ‖u(t_n) − u_n^hk‖_V, with ‖w‖_V = ‖ε(w)‖_{L²} (3.3);
 //! - `difference_quotient`: max_n ‖δu_n − δu_n^hk‖_V, δu_n = (u(t_n) − u(t_{n−1}))/k, δu_n^hk = v_n;

@@ -1,6 +1,7 @@
-//! Manufactured solutions (SPEC §4): exact fields u, β given as expressions in (x, y, z, t), and
-//! the data that make them exact — f0, f2, f3, q and the damage flux — derived by automatic
-//! differentiation (num-dual) and the chain rule through the solver's constitutive laws.
+//! Manufactured solutions (docs/model.md §5): exact fields u, β given as expressions in
+//! (x, y, z, t), and the data that make them exact — f0, f2, f3, q and the damage flux — derived
+//! by automatic differentiation (num-dual) and the chain rule through the solver's constitutive
+//! laws.
 //!
 //! The harness evaluates the exact fields and their derivatives with programs compiled once per
 //! case by symbolic differentiation ([`programs`]), over batches of quadrature points, and
@@ -79,7 +80,7 @@ pub fn value<const D: usize>(expr: &Expr, x: &[f64; D], t: f64) -> f64 {
     expr.eval_f64(&[x[0], x[1], z, t])
 }
 
-/// The exact solution of a manufactured case and the auxiliary fields of SPEC §4.
+/// The exact solution of a manufactured case and the auxiliary fields of docs/model.md §5.
 #[derive(Clone)]
 pub struct ExactSolution<const D: usize> {
     /// u_i(x, t), i = 1..D.
@@ -175,7 +176,7 @@ impl<const D: usize> ExactSolution<D> {
         state.displacement.dot(normal) - value(&self.gap, x, t)
     }
 
-    /// f3 = σν + p_ν(u_ν − g) ν + p_τ(u_ν − g) ξ̂ on Γ3 (SPEC §4) (tree evaluation).
+    /// f3 = σν + p_ν(u_ν − g) ν + p_τ(u_ν − g) ξ̂ on Γ3 (docs/model.md §5) (tree evaluation).
     pub fn contact_traction(
         &self,
         laws: &Laws<D>,
@@ -188,7 +189,7 @@ impl<const D: usize> ExactSolution<D> {
         contact_traction_at(laws, &state, &xi, value(&self.gap, x, t), normal)
     }
 
-    /// q = β̇ − κΔβ + η − φ(ε(u), β) (SPEC §4) (tree evaluation).
+    /// q = β̇ − κΔβ + η − φ(ε(u), β) (docs/model.md §5) (tree evaluation).
     pub fn damage_supply(&self, laws: &Laws<D>, x: &[f64; D], t: f64) -> f64 {
         let damage = jet(&self.damage, x, t);
         let mut gradient = SMatrix::<f64, D, D>::zeros();
@@ -306,9 +307,9 @@ pub fn tangential_part<const D: usize>(
     once - normal * once.dot(normal)
 }
 
-/// The friction direction ξ̂ of SPEC §4: u̇_τ/|u̇_τ| where the body slips, else the tangential
-/// part of the stick field ξ (stick: |u̇_τ| ≤ [`SLIP_ROUNDOFF`] · |u̇|, i.e. u̇_τ = 0 up to
-/// round-off).
+/// The friction direction ξ̂ of docs/model.md §5: u̇_τ/|u̇_τ| where the body slips, else the
+/// tangential part of the stick field ξ (stick: |u̇_τ| ≤ [`SLIP_ROUNDOFF`] · |u̇|, i.e. u̇_τ = 0
+/// up to round-off).
 pub fn friction_direction<const D: usize>(
     state: &PointState<D>,
     stick_traction: &SVector<f64, D>,
@@ -323,7 +324,7 @@ pub fn friction_direction<const D: usize>(
     }
 }
 
-/// f3 = σν + p_ν(r) ν + p_τ(r) ξ̂ on Γ3 with the penetration r = u_ν − g (SPEC §4).
+/// f3 = σν + p_ν(r) ν + p_τ(r) ξ̂ on Γ3 with the penetration r = u_ν − g (docs/model.md §5).
 #[inline]
 pub fn contact_traction_at<const D: usize>(
     laws: &Laws<D>,
@@ -353,7 +354,7 @@ pub struct DamageJet {
     pub multiplier: f64,
 }
 
-/// q = β̇ − κΔβ + η − φ(ε(u), β) (SPEC §4).
+/// q = β̇ − κΔβ + η − φ(ε(u), β) (docs/model.md §5).
 #[inline]
 pub fn damage_supply_at<const D: usize>(
     laws: &Laws<D>,

@@ -1,6 +1,6 @@
-//! The manufactured data f0, f2, f3, q and κ∂β/∂ν (SPEC §4) as batched fields of the solver
-//! ([`contact_damage::fields`]): the exact fields' derivatives come from the programs compiled
-//! once per case ([`ExactPrograms`]), evaluated over the scheme's batches of quadrature
+//! The manufactured data f0, f2, f3, q and κ∂β/∂ν (docs/model.md §5) as batched fields of the
+//! solver ([`contact_damage::fields`]): the exact fields' derivatives come from the programs
+//! compiled once per case ([`ExactPrograms`]), evaluated over the scheme's batches of quadrature
 //! points; the chain rule through the laws is applied per point (the `*_at` / `*_of_*`
 //! formulas of the parent module): f0 by one call per law and batch of its stress divergence
 //! straight from the program's output columns (`stress_divergence_of_jets`, the laws'
