@@ -11,15 +11,7 @@ fn verify() -> Command {
 fn verify_writes_csv_json_and_svg_reports() {
     let out = std::env::temp_dir().join(format!("verify-cli-{}", std::process::id()));
     let status = verify()
-        .args([
-            "--order",
-            "1",
-            "--levels",
-            "3",
-            "--studies",
-            "h,diagonal",
-            "--out",
-        ])
+        .args(["--order", "1", "--studies", "h,diagonal", "--out"])
         .arg(&out)
         .env("CI", "1")
         .output()
@@ -30,7 +22,7 @@ fn verify_writes_csv_json_and_svg_reports() {
         String::from_utf8_lossy(&status.stderr)
     );
     let csv = std::fs::read_to_string(out.join("errors.csv")).unwrap();
-    assert_eq!(csv.lines().count(), 1 + 6, "header + 2 studies × 3 runs");
+    assert_eq!(csv.lines().count(), 1 + 8, "header + 2 studies × 4 runs");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
     assert_eq!(json["case"], "zones2d");
@@ -41,6 +33,7 @@ fn verify_writes_csv_json_and_svg_reports() {
     // and tables.tex are written too, with the total error of every run of errors.csv
     let stdout = String::from_utf8_lossy(&status.stdout);
     assert!(stdout.contains("(SE)"), "{stdout}");
+    assert!(stdout.contains("\nverdict: PASS"), "{stdout}");
     let rates = std::fs::read_to_string(out.join("rates.csv")).unwrap();
     assert_eq!(
         rates.lines().count(),
@@ -86,11 +79,15 @@ fn verify_k_study_reports_newton_statistics_and_no_nan() {
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&output.stdout);
-    assert!(
-        output.status.success(),
+    // two levels give one pairwise rate and no fit: the reports are written, but nothing is
+    // certified (exit status 3)
+    assert_eq!(
+        output.status.code(),
+        Some(3),
         "{stdout}\n{}",
         String::from_utf8_lossy(&output.stderr)
     );
+    assert!(stdout.contains("\nverdict: DRIFTING"), "{stdout}");
     let csv = std::fs::read_to_string(out.join("errors.csv")).unwrap();
     let json_text = std::fs::read_to_string(out.join("summary.json")).unwrap();
     for (name, text) in [
@@ -258,15 +255,29 @@ fn verify_refuses_an_out_that_is_no_writable_folder_before_solving() {
     }
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "mine\n");
 
-    // a read-only folder (not testable as root, who may write anyway)
+    // a folder nobody may create a file in, root included: /proc (the kernel refuses new
+    // files there; the probe's create_new fails with ENOENT)
+    #[cfg(target_os = "linux")]
+    {
+        let proc = std::path::Path::new("/proc");
+        assert!(proc.is_dir(), "/proc is not mounted");
+        let stderr = refused(&["--levels", "2"], proc);
+        assert!(
+            stderr.contains("--out `/proc`") && stderr.contains("cannot write into the folder"),
+            "{stderr}"
+        );
+    }
+    // a folder without write permission, for a user the permissions bind (root may write
+    // anyway: the /proc case above covers the refusal for root)
     #[cfg(unix)]
     {
         use std::os::unix::fs::PermissionsExt;
         let locked = dir.join("locked");
         std::fs::create_dir_all(&locked).unwrap();
         std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).unwrap();
-        let writable = std::fs::write(locked.join("probe"), "").is_ok();
-        if !writable {
+        if std::fs::write(locked.join("probe"), "").is_ok() {
+            eprintln!("read-only folder not checked: this user may write into a 0o555 folder");
+        } else {
             let stderr = refused(&["--levels", "2"], &locked);
             assert!(
                 stderr.contains("--out") && stderr.contains("cannot write into the folder"),
@@ -391,4 +402,85 @@ fn verify_refuses_studies_too_large_for_the_memory_before_solving() {
     );
     let stderr = refused(&["--memory-limit=-1"], &dir.join("out"));
     assert!(stderr.contains("--memory-limit -1"), "{stderr}");
+}
+
+#[test]
+fn verify_baseline_regenerates_the_baseline_and_lists_the_errors_that_moved() {
+    // a copy of the committed baseline of zones2d at l = 1, one error changed by hand
+    let scratch = tempfile::tempdir().unwrap();
+    let committed =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../reports/zones2d/l1");
+    let copy = scratch.path().join("zones2d/l1");
+    std::fs::create_dir_all(&copy).unwrap();
+    let csv = std::fs::read_to_string(committed.join("errors.csv")).unwrap();
+    let mut lines: Vec<String> = csv.lines().map(String::from).collect();
+    let header: Vec<&str> = lines[0].split(',').collect();
+    let column = header.iter().position(|h| *h == "damage").unwrap();
+    let mut cells: Vec<String> = lines[2].split(',').map(String::from).collect();
+    let (study, level, steps) = (cells[1].clone(), cells[4].clone(), cells[8].clone());
+    let original: f64 = cells[column].parse().unwrap();
+    cells[column] = (original * 1.001).to_string();
+    lines[2] = cells.join(",");
+    std::fs::write(copy.join("errors.csv"), lines.join("\n") + "\n").unwrap();
+
+    let output = verify()
+        .args(["baseline", "--case", "zones2d", "--order", "1", "--reports"])
+        .arg(scratch.path())
+        .env("CI", "1")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    // the changed value is listed as moved back to the computed one, and only it
+    assert!(
+        stdout.contains("12 runs compared (0 removed, 0 added)")
+            && stdout.contains("1 errors moved"),
+        "{stdout}"
+    );
+    let moved = format!("{study}-study level {level}, {steps} steps: damage");
+    assert!(stdout.contains(&moved), "{moved} not in\n{stdout}");
+    // the regenerated errors are those of the committed baseline (to the pinned tolerance of
+    // the CI rate tests: KKT residuals and wall times may differ between machines)
+    let regenerated = std::fs::read_to_string(copy.join("errors.csv")).unwrap();
+    let components = [
+        "displacement",
+        "difference_quotient",
+        "damage",
+        "damage_gradient",
+        "total",
+    ];
+    let values = |text: &str| -> Vec<f64> {
+        let header: Vec<&str> = text.lines().next().unwrap().split(',').collect();
+        text.lines()
+            .skip(1)
+            .flat_map(|line| {
+                let cells: Vec<String> = line.split(',').map(String::from).collect();
+                components
+                    .iter()
+                    .map(|name| {
+                        let at = header.iter().position(|h| h == name).unwrap();
+                        cells[at].parse::<f64>().unwrap()
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect()
+    };
+    let (new, old) = (values(&regenerated), values(&csv));
+    assert_eq!(new.len(), old.len());
+    for (new, old) in new.iter().zip(&old) {
+        assert!((new - old).abs() <= 1e-8 * old.abs(), "{new} against {old}");
+    }
+    for name in [
+        "summary.json",
+        "rates.csv",
+        "report.md",
+        "h-l1.svg",
+        "manifest.json",
+    ] {
+        assert!(copy.join(name).exists(), "{name} not written");
+    }
 }

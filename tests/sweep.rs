@@ -27,10 +27,16 @@ fn text(output: &Output) -> String {
     )
 }
 
+/// Runs `command` and returns its stdout; it must end with status 0, or with status 3 and the
+/// verdict DRIFTING: the two-level studies of these tests have no fit, so they certify nothing
+/// (that is not what these tests are about; a FAIL or an error still fails them).
 fn run_ok(command: &mut Command) -> String {
     let output = command.output().unwrap();
-    assert!(output.status.success(), "{:?}\n{}", command, text(&output));
-    String::from_utf8_lossy(&output.stdout).into_owned()
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    let done = output.status.success()
+        || (output.status.code() == Some(3) && stdout.contains("\nverdict: DRIFTING"));
+    assert!(done, "{:?}\n{}", command, text(&output));
+    stdout
 }
 
 /// The (cached, computed) counts of the line `cached: C runs, computed: N runs`.
@@ -150,7 +156,7 @@ fn shards_run_in_parallel_then_merged_give_the_reports_of_a_single_process_run()
     );
 
     let merged = run_ok(verify().args(["merge", "--manifest"]).arg(&manifest));
-    assert!(merged.contains("verdict: PASS"), "{merged}");
+    assert!(merged.contains("verdict: DRIFTING"), "{merged}");
     let names = reports(&single);
     assert_eq!(names, reports(&cluster));
     assert!(
@@ -224,7 +230,7 @@ fn an_interrupted_study_resumes_and_computes_only_the_missing_runs() {
     let stdout = run_ok(verify().args(STUDY).arg("--out").arg(&dir));
     assert_eq!(counts(&stdout), (2, 4), "{stdout}");
     assert_eq!(stdout.matches("computed run ").count(), 4, "{stdout}");
-    assert!(stdout.contains("verdict: PASS"), "{stdout}");
+    assert!(stdout.contains("verdict: DRIFTING"), "{stdout}");
     let stdout = run_ok(verify().args(STUDY).arg("--out").arg(&dir));
     assert_eq!(counts(&stdout), (6, 0), "{stdout}");
     let stdout = run_ok(verify().args(STUDY).arg("--out").arg(&dir).arg("--fresh"));
@@ -321,7 +327,8 @@ fn a_corrupt_or_truncated_result_is_detected_and_recomputed_never_merged() {
     let output = verify().args(args).arg(&dir).output().unwrap();
     let stdout = String::from_utf8_lossy(&output.stdout);
     let stderr = String::from_utf8_lossy(&output.stderr);
-    assert!(output.status.success(), "{}", text(&output));
+    // the two-level study certifies nothing (status 3), but every run has a result
+    assert_eq!(output.status.code(), Some(3), "{}", text(&output));
     assert_eq!(stderr.matches("recomputing").count(), 2, "{stderr}");
     assert_eq!(counts(&stdout), (0, 2), "{stdout}");
     assert_eq!(csv_without_wall_time(&dir.join("errors.csv")), before);
@@ -427,7 +434,10 @@ fn the_stored_runs_give_the_errors_of_the_in_memory_studies() {
     assert_eq!(studies.len(), 3);
     for (study, json) in in_memory.iter().zip(studies) {
         assert_eq!(json["kind"], study.kind.name());
-        assert_eq!(json["pass"], study.pass);
+        assert_eq!(
+            json["verdict"],
+            serde_json::to_value(study.verdict).unwrap()
+        );
         for (run, stored) in study.runs.iter().zip(json["runs"].as_array().unwrap()) {
             assert_eq!(stored["steps"], run.steps);
             for (name, value) in verify::errors::ErrorComponents::NAMES
@@ -461,7 +471,8 @@ if [ -n "$array" ]; then
     SLURM_ARRAY_TASK_ID=$i bash "$script" >> "$SBATCH_LOG" 2>&1 || exit 1
   done
 else
-  bash "$script" >> "$SBATCH_LOG" 2>&1 || exit 1
+  bash "$script" >> "$SBATCH_LOG" 2>&1
+  echo "job exit $?" >> "$SBATCH_LOG"
 fi
 echo "$((1000 + $(grep -c '^sbatch ' "$SBATCH_LOG")));cluster"
 "#;
@@ -513,7 +524,12 @@ fn the_slurm_scripts_run_every_run_as_an_array_task_then_merge() {
     // when a level before it needed it (one task per run either way)
     let tasks = log.matches("cached: ").count();
     assert_eq!(tasks, 6, "{log}");
-    assert!(log.contains("verdict: PASS"), "{log}");
+    // the merge job ends with the status of `verify merge`: 3, as the two-level study is not
+    // certified
+    assert!(
+        log.contains("verdict: DRIFTING") && log.contains("job exit 3"),
+        "{log}"
+    );
     assert!(study.join("summary.json").exists() && study.join("errors.csv").exists());
     std::fs::remove_dir_all(&dir).ok();
 }

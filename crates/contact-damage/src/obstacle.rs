@@ -72,7 +72,7 @@
 //! Why this method for (5.2): the work per iteration is a few sparse products (no
 //! factorization at all, so nothing is refactorized when the active set changes), and the
 //! consistent mass matrix (positive off-diagonal entries) is no obstacle for projected
-//! Gauss–Seidel. Iteration counts on the moving-damage case are in the README: once the
+//! Gauss–Seidel. Iteration counts on the moving-damage case are in `docs/explanation/performance.md`: once the
 //! active set is found, about four iterations to 1e-12 at every N; at a fixed time step the
 //! free boundary moves by more cells on finer meshes, and without the coarse obstacle
 //! correction the counts grew by about one iteration per doubling of N (at most 6, 6, 7, 9
@@ -151,7 +151,8 @@
 //! every result is certified by the same KKT residual as before, so the accuracy is that of
 //! a direct solve. The cost depends on `κk/h²`: when the mass term dominates (k ≲ h²/κ)
 //! a reduced solve takes a few CG iterations whatever N; when diffusion dominates, the
-//! measured CG iterations per step grow about like N at fixed k (table in the README, case
+//! measured CG iterations per step grow about like N at fixed k (table in
+//! `docs/explanation/performance.md`, case
 //! of `examples/common/moving_damage.rs`). The projected Newton direction of step 3 is computed
 //! by the same CG from zero (a descent direction at any iteration).
 //!

@@ -2,7 +2,7 @@
 //! `examples/common/moving_damage.rs`, for both box QP methods: an exact KKT certificate every
 //! step and bounded outer and inner (preconditioned CG) iteration counts for N = 16, 32, 64;
 //! one numeric factorization per run for the active set method, none for the monotone
-//! multigrid. The counts for N up to 512 are in the README
+//! multigrid. The counts for N up to 512 are in `docs/explanation/performance.md`
 //! (`cargo run --release -p contact-damage --example damage_iterations [-- --active-set]`).
 
 use contact_damage::obstacle::BoxQpMethod;

@@ -622,7 +622,7 @@ fn render(
              as above (fastest of {REPEATS} runs of the steps); *2 tri-solves* = one solve with the velocity factor, \
              which is sequential (the same reference as above, measured again in this process); *ratio* as above. \
              The first table is the work of a step (one thread); this one is what a step of a run takes on this \
-             machine as `simulate` runs by default. The README states which cases are within the target in each.\n"
+             machine as `simulate` runs by default. docs/explanation/performance.md states which cases are within the target in each.\n"
         );
         let _ = writeln!(
             out,

@@ -13,7 +13,7 @@
 //! # ... or a Gmsh 4.1 file (path relative to the problem file), groups by name or tag:
 //! # gmsh = { file = "part.msh", clamped = ["left"], traction = ["top", 7], contact = ["bottom"] }
 //! #        (optionally `refinements = r`: the mesh refined uniformly r times, groups kept)
-//! [laws]                   # as in the verification case files (README: "Laws in case and problem files")
+//! [laws]                   # as in the verification case files (docs/reference/problem-file.md)
 //! # ...
 //! [loads]                  # all optional (zero, resp. β0 = 1)
 //! body_force = ["0", "0"]                      # f0 in x, y, z, t

@@ -1,5 +1,5 @@
 //! The validation examples of `verification/validation/` rerun reduced (issue 17): the full
-//! tables come from `cargo run --release -p simulate --example validation` (README, Validation).
+//! tables come from `cargo run --release -p simulate --example validation` (docs/results/validation.md).
 
 mod common;
 
@@ -83,7 +83,7 @@ fn sliding_block_friction_saturates_at_mu_times_the_normal_force() {
 /// the peak pressure and the half-width of the computed pressure ellipse against Hertz's
 /// formulas for the measured load. Tolerance 1 %: the finest mesh of the full table differs by
 /// 0.7 % at ν = 0.3 through the normal–tangential coupling that Hertz's theory neglects
-/// (shrinking to 0.2 % ≈ (a/R)² as ν → 1/2, README), and this mesh by 0.3 %; an error in E*, R,
+/// (shrinking to 0.2 % ≈ (a/R)² as ν → 1/2, docs/results/validation.md), and this mesh by 0.3 %; an error in E*, R,
 /// the load or the contact rule moves them by far more.
 #[test]
 fn hertz_line_contact_on_the_coarse_mesh_matches_the_theory() {

@@ -1,4 +1,4 @@
-//! The discrete initial layer of the damage equation, step by step (README, Verification).
+//! The discrete initial layer of the damage equation, step by step (docs/explanation/rates.md).
 //!
 //! ```text
 //! cargo run --release -p verify --example initial_layer -- [CASE.toml …] [--cells N] [--order l] [--reference-steps M]

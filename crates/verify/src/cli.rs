@@ -2,7 +2,7 @@
 
 use crate::case::{parse_case_file, Case, CaseFile};
 use crate::output::format_or_dash;
-use crate::study::StudyResult;
+use crate::study::{StudyResult, Verdict};
 use crate::sweep::merge::{merge, write_study_reports};
 use crate::sweep::plan::{plan, read_manifest, write_manifest, Manifest};
 use crate::sweep::run::{execute, Executed};
@@ -101,7 +101,8 @@ pub struct StudyArgs {
     /// Which studies to run (comma-separated: h, k, diagonal).
     #[arg(long, value_delimiter = ',', default_value = "h,k,diagonal")]
     pub studies: Vec<String>,
-    /// Output folder (default: `reports/<case>/l<order>`).
+    /// Output folder (default: `out/<case>/l<order>`; the committed baseline in `reports/` is
+    /// written only by `verify baseline`).
     #[arg(long)]
     pub out: Option<PathBuf>,
     /// Worker threads, 1 ..= 4 × the available cores (default: all cores).
@@ -146,6 +147,28 @@ pub enum Command {
         #[arg(long)]
         threads: Option<usize>,
     },
+    /// Regenerates the committed baseline `reports/<case>/l<order>/` (the full studies of the
+    /// built-in cases) and lists every error that moved against the files it replaces.
+    Baseline {
+        /// Built-in cases to regenerate, comma-separated (default: all).
+        #[arg(long = "case", value_delimiter = ',')]
+        cases: Vec<String>,
+        /// Orders l to regenerate, comma-separated.
+        #[arg(long = "order", value_delimiter = ',', default_value = "1,2")]
+        orders: Vec<usize>,
+        /// The baseline folder.
+        #[arg(long, default_value = crate::baseline::BASELINE_FOLDER)]
+        reports: PathBuf,
+        /// Relative change above which an error is listed as moved.
+        #[arg(long, default_value_t = 1e-8)]
+        tolerance: f64,
+        /// Worker threads, 1 ..= 4 × the available cores (default: all cores).
+        #[arg(long)]
+        threads: Option<usize>,
+        /// Recompute every run even when `runs/` holds a valid result.
+        #[arg(long)]
+        fresh: bool,
+    },
     /// Merges the results of a manifest into the reports of a single-process run.
     Merge {
         /// The manifest written by `verify plan`.
@@ -159,6 +182,10 @@ pub enum Command {
         out: Option<PathBuf>,
     },
 }
+
+/// The folder of a run's reports when `--out` is not given: `out/<case>/l<order>` (untracked,
+/// so that running `verify` leaves a clone of the repository clean).
+pub const DEFAULT_OUT: &str = "out";
 
 /// The names of `--studies`.
 pub const STUDY_NAMES: [&str; 3] = ["h", "k", "diagonal"];
@@ -251,7 +278,7 @@ pub fn study_table(study: &StudyResult) -> String {
         study.degree,
         study.variable,
         fixed(study.expected_rate, 2),
-        if study.pass { "PASS" } else { "FAIL" }
+        study.verdict.label()
     )];
     lines.push(format!(
         "{:>6} {:>6} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>10} {:>9} {:>11} {:>7}",
@@ -354,7 +381,7 @@ fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), VerifyError> {
     })?;
     let manifest = plan(&text, &origin, args.order, &args.studies, args.levels)?;
     let out = args.out.clone().unwrap_or_else(|| {
-        PathBuf::from("reports")
+        PathBuf::from(DEFAULT_OUT)
             .join(&file.name)
             .join(format!("l{}", args.order))
     });
@@ -401,9 +428,44 @@ fn results_folder(manifest: &Path, results: Option<PathBuf>) -> PathBuf {
     results.unwrap_or_else(|| manifest.parent().unwrap_or(Path::new("")).join("runs"))
 }
 
+/// How a command ended, for the exit status of `verify`; ordered from the best to the worst.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Outcome {
+    /// Done; for studies, every verdict PASS (status 0).
+    Success,
+    /// No study failed, but one is DRIFTING: not certified (status 3).
+    NotCertified,
+    /// A study FAILed, or runs of a merge have no valid result (status 1).
+    Failure,
+}
+
+impl Outcome {
+    /// The outcome of studies with the combined verdict `verdict`.
+    pub fn of(verdict: Verdict) -> Self {
+        match verdict {
+            Verdict::Pass => Outcome::Success,
+            Verdict::Fail => Outcome::Failure,
+            Verdict::Drifting => Outcome::NotCertified,
+        }
+    }
+
+    /// The process exit status: 0, 1 or 3 (2 is an error, see `main`).
+    pub fn exit_status(self) -> u8 {
+        match self {
+            Outcome::Success => 0,
+            Outcome::Failure => 1,
+            Outcome::NotCertified => 3,
+        }
+    }
+}
+
 /// Merges the results of `manifest`, prints the tables and writes the reports into `out`;
-/// returns whether every run has a result and every verdict passed.
-fn merge_and_report(manifest: &Manifest, results: &Path, out: &Path) -> Result<bool, VerifyError> {
+/// returns the outcome: the combined verdict, or a failure when a run has no valid result.
+fn merge_and_report(
+    manifest: &Manifest,
+    results: &Path,
+    out: &Path,
+) -> Result<Outcome, VerifyError> {
     let merged = merge(manifest, results)?;
     if !merged.problems.is_empty() {
         println!(
@@ -415,7 +477,7 @@ fn merge_and_report(manifest: &Manifest, results: &Path, out: &Path) -> Result<b
         }
         println!("no reports written");
         println!("verdict: INCOMPLETE");
-        return Ok(false);
+        return Ok(Outcome::Failure);
     }
     for study in &merged.studies {
         print_study(study);
@@ -428,13 +490,13 @@ fn merge_and_report(manifest: &Manifest, results: &Path, out: &Path) -> Result<b
     for path in written {
         println!("wrote {}", path.display());
     }
-    let pass = merged.pass();
-    println!("verdict: {}", if pass { "PASS" } else { "FAIL" });
-    Ok(pass)
+    let verdict = merged.verdict();
+    println!("verdict: {} ({})", verdict.label(), verdict.explanation());
+    Ok(Outcome::of(verdict))
 }
 
-/// Runs the command line; returns whether every verdict passed.
-pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
+/// Runs the command line; returns how it ended ([`Outcome`]).
+pub fn main_with(cli: Cli) -> Result<Outcome, VerifyError> {
     match cli.command {
         None => run_in_process(&cli.study, cli.fresh),
         Some(Command::Plan { study, manifest }) => {
@@ -448,7 +510,7 @@ pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
             );
             // for scripts: the size of a job array
             println!("runs: {}", planned.runs.len());
-            Ok(true)
+            Ok(Outcome::Success)
         }
         Some(Command::Run {
             manifest,
@@ -480,8 +542,16 @@ pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
                 executed.computed,
                 results.display()
             );
-            Ok(true)
+            Ok(Outcome::Success)
         }
+        Some(Command::Baseline {
+            cases,
+            orders,
+            reports,
+            tolerance,
+            threads,
+            fresh,
+        }) => regenerate_baseline(&cases, &orders, &reports, tolerance, threads, fresh),
         Some(Command::Merge {
             manifest,
             results,
@@ -501,7 +571,7 @@ pub fn main_with(cli: Cli) -> Result<bool, VerifyError> {
 
 /// A whole study in this process: plan (the manifest `<out>/manifest.json`), run the runs that
 /// `<out>/runs/` does not hold yet (all with `fresh`), merge and report.
-fn run_in_process(args: &StudyArgs, fresh: bool) -> Result<bool, VerifyError> {
+fn run_in_process(args: &StudyArgs, fresh: bool) -> Result<Outcome, VerifyError> {
     let (manifest, out) = plan_study(args)?;
     check_out(&out)?;
     let started = std::time::Instant::now();
@@ -516,7 +586,104 @@ fn run_in_process(args: &StudyArgs, fresh: bool) -> Result<bool, VerifyError> {
         executed.computed,
         results.display()
     );
-    let pass = merge_and_report(&manifest, &results, &out)?;
+    let outcome = merge_and_report(&manifest, &results, &out)?;
     println!("{:.1} s", started.elapsed().as_secs_f64());
-    Ok(pass)
+    Ok(outcome)
+}
+
+/// `verify baseline`: regenerates `reports/<case>/l<order>/` for the named built-in cases (all
+/// when none is named) and orders, each as a whole study in this process, and prints, per
+/// baseline, how many runs were compared and every error whose relative change exceeds
+/// `tolerance` against the `errors.csv` it replaced. Everything is checked before the first
+/// study runs.
+fn regenerate_baseline(
+    cases: &[String],
+    orders: &[usize],
+    reports: &Path,
+    tolerance: f64,
+    threads: Option<usize>,
+    fresh: bool,
+) -> Result<Outcome, VerifyError> {
+    use crate::baseline::{baseline_path, BaselineErrors};
+    if let Some(unknown) = cases
+        .iter()
+        .find(|name| !BUILT_IN_CASES.iter().any(|(n, _)| n == name))
+    {
+        return Err(VerifyError::InvalidInput(format!(
+            "--case `{unknown}`: the baseline holds the built-in cases only ({})",
+            BUILT_IN_CASES.map(|(n, _)| n).join(", ")
+        )));
+    }
+    if let Some(order) = orders.iter().find(|o| !(1..=2).contains(*o)) {
+        return Err(VerifyError::InvalidInput(format!(
+            "--order must be 1 or 2, got {order}"
+        )));
+    }
+    if !(tolerance.is_finite() && tolerance >= 0.0) {
+        return Err(VerifyError::InvalidInput(format!(
+            "--tolerance {tolerance}: must be a finite number ≥ 0"
+        )));
+    }
+    set_threads(threads)?;
+    let selected: Vec<&str> = BUILT_IN_CASES
+        .iter()
+        .map(|(name, _)| *name)
+        .filter(|name| cases.is_empty() || cases.iter().any(|c| c == name))
+        .collect();
+    let mut verdicts = Vec::new();
+    let mut lines = Vec::new();
+    for case in selected {
+        for &order in orders {
+            let out = baseline_path(reports, case, order);
+            let errors = out.join("errors.csv");
+            let old = if errors.exists() {
+                Some(BaselineErrors::read(&errors)?)
+            } else {
+                None
+            };
+            let args = StudyArgs {
+                order,
+                dim: 2,
+                case: Some(case.to_string()),
+                levels: None,
+                studies: STUDY_NAMES.map(String::from).to_vec(),
+                out: Some(out.clone()),
+                // the pool is set up once, above
+                threads: None,
+                memory_limit: None,
+            };
+            verdicts.push(run_in_process(&args, fresh)?);
+            let new = BaselineErrors::read(&errors)?;
+            lines.push(match old {
+                None => format!("{}: new baseline, {} runs", out.display(), new.rows.len()),
+                Some(old) => {
+                    let comparison = old.compare(&new, tolerance);
+                    let mut text = format!(
+                        "{}: {} runs compared ({} removed, {} added), largest relative change {:.1e}, {} errors moved beyond {tolerance:.0e}",
+                        out.display(),
+                        comparison.compared,
+                        comparison.only_old,
+                        comparison.only_new,
+                        comparison.largest,
+                        comparison.moved.len()
+                    );
+                    for moved in &comparison.moved {
+                        let (study, level, steps) = &moved.run;
+                        text += &format!(
+                            "\n    {study}-study level {level}, {steps} steps: {} {} -> {}",
+                            moved.component,
+                            format_or_dash(moved.old.unwrap_or(f64::NAN), |v| format!("{v:.9e}")),
+                            format_or_dash(moved.new.unwrap_or(f64::NAN), |v| format!("{v:.9e}")),
+                        );
+                    }
+                    text
+                }
+            });
+        }
+    }
+    println!("\nbaseline:");
+    for line in lines {
+        println!("  {line}");
+    }
+    Ok(verdicts.into_iter().max().unwrap_or(Outcome::Success))
 }

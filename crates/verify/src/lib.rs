@@ -11,10 +11,12 @@
 //! - [`manufactured`]: source terms f0, f2, f3, q derived by automatic differentiation;
 //! - [`errors`]: the components of E(h, k) of Theorem 5.2;
 //! - [`study`]: h-, k- and diagonal studies with rates and verdicts;
+//! - [`baseline`]: the committed baseline of the built-in cases and what moved in it;
 //! - [`report`]: CSV, JSON and SVG reports, `report.md` and `tables.tex` ([`tables`]);
 //! - [`sweep`]: plan / run one / merge / resume: manifests, the results cache, job arrays;
 //! - [`cli`]: the `verify` command line.
 
+pub mod baseline;
 pub mod budget;
 pub mod case;
 pub mod cli;

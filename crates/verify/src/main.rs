@@ -4,8 +4,7 @@ use verify::cli::{main_with, Cli};
 
 fn main() -> ExitCode {
     match main_with(Cli::parse()) {
-        Ok(true) => ExitCode::SUCCESS,
-        Ok(false) => ExitCode::from(1),
+        Ok(outcome) => ExitCode::from(outcome.exit_status()),
         Err(error) => {
             eprintln!("error: {error}");
             ExitCode::from(2)

@@ -14,7 +14,7 @@ use crate::output::{
     write_json_atomic,
 };
 use crate::plot::{loglog_svg, ReferenceSlope, Series};
-use crate::study::{StudyResult, RATE_TOLERANCE};
+use crate::study::{StudyResult, Verdict, RATE_TOLERANCE};
 use crate::tables::{self, StudyHead};
 use crate::VerifyError;
 use serde::Serialize;
@@ -149,8 +149,8 @@ pub struct Summary<'a> {
     pub rate_tolerance: f64,
     /// Studies.
     pub studies: &'a [StudyResult],
-    /// True when every study passes.
-    pub pass: bool,
+    /// The verdict of all studies ([`Verdict::combine`]).
+    pub verdict: Verdict,
 }
 
 /// The file name of the plot of a study.
@@ -249,7 +249,7 @@ pub fn write_reports(
         dim,
         rate_tolerance: RATE_TOLERANCE,
         studies,
-        pass: studies.iter().all(|s| s.pass),
+        verdict: Verdict::combine(studies.iter().map(|s| s.verdict)),
     };
     let json = out.join("summary.json");
     write_json_atomic(&json, &summary)?;
@@ -299,7 +299,7 @@ pub fn write_reports(
             degree: study.degree,
             variable: study.variable,
             expected: study.expected_rate,
-            pass: study.pass,
+            verdict: study.verdict,
             plot: plot_name(study),
         })
         .collect();
@@ -319,7 +319,7 @@ pub fn write_reports(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::study::{rates, RunResult, RunStats, StudyKind};
+    use crate::study::{rates, RunResult, RunStats, StudyKind, Verdict};
 
     /// A k-study whose velocity error has no value (its reference is discrete).
     fn k_study() -> StudyResult {
@@ -355,7 +355,7 @@ mod tests {
             degree: 1,
             variable: "k",
             expected_rate: 1.0,
-            pass: rates.iter().all(|r| r.pass != Some(false)),
+            verdict: Verdict::of(&rates),
             runs,
             rates,
         }

@@ -4,6 +4,7 @@
 
 use crate::output::MISSING;
 use crate::report::{ErrorRow, RateRow};
+use crate::study::Verdict;
 
 /// A number as printed in both files: scientific with 3 decimals, or `missing` when not finite.
 pub fn sci(value: f64, missing: &str) -> String {
@@ -156,7 +157,7 @@ pub struct StudyHead {
     /// Expected rate of E.
     pub expected: f64,
     /// Verdict.
-    pub pass: bool,
+    pub verdict: Verdict,
     /// Its plot, relative to the report.
     pub plot: String,
 }
@@ -171,14 +172,15 @@ pub fn markdown(
     runs: &[ErrorRow],
     rates: &[RateRow],
 ) -> String {
-    let pass = studies.iter().all(|s| s.pass);
+    let verdict = Verdict::combine(studies.iter().map(|s| s.verdict));
     let mut md = format!(
         "# Verification of `{case}`\n\nCase {origin}, d = {dim}. Errors E(h, k) of Theorem 5.2 against the \
-manufactured solution; a study passes when the least-squares rate over its finest levels is ≥ expected − {tolerance} \
-for every component the theorem bounds. Standard error and 95 % interval of the least-squares slope (Student's t); \
-\"drifting\": the pairwise rates over the fitted levels differ by more than {tolerance} (not yet asymptotic; \
-the verdict does not use it). Verdict: **{}**.\n",
-        if pass { "PASS" } else { "FAIL" }
+manufactured solution. A component the theorem bounds passes when its least-squares rate over the finest levels \
+and its rate between the two finest levels are both ≥ expected − {tolerance}. Standard error and 95 % interval of \
+the least-squares slope (Student's t); \"drifting\": the pairwise rates over the fitted levels differ by more \
+than {tolerance} (not yet asymptotic). A study is PASS when every bounded component passes and E_total does not \
+drift, FAIL when a component fails, DRIFTING (not certified) when E_total drifts. Verdict: **{}**.\n",
+        verdict.label()
     );
     for study in studies {
         md += &format!(
@@ -187,7 +189,7 @@ the verdict does not use it). Verdict: **{}**.\n",
             study.degree,
             study.variable,
             rate(study.expected, MISSING),
-            if study.pass { "PASS" } else { "FAIL" }
+            study.verdict.label()
         );
         md += &md_header(&RUN_HEADER);
         for row in runs
@@ -234,7 +236,7 @@ pub fn latex(case: &str, studies: &[StudyHead], runs: &[ErrorRow], rates: &[Rate
             study.degree,
             study.variable,
             rate(study.expected, "--"),
-            if study.pass { "PASS" } else { "FAIL" },
+            study.verdict.label(),
             "r".repeat(RUN_HEADER.len() - 2),
             TEX_RUN_HEADER.join(" & ")
         );

@@ -4,7 +4,7 @@
 
 use crate::case::parse_case_file;
 use crate::report::write_reports;
-use crate::study::{level_study_result, time_study_result, StudyKind, StudyResult};
+use crate::study::{level_study_result, time_study_result, StudyKind, StudyResult, Verdict};
 use crate::sweep::cache::{load_run, result_path, Stored};
 use crate::sweep::plan::Manifest;
 use crate::VerifyError;
@@ -21,9 +21,10 @@ pub struct Merged {
 }
 
 impl Merged {
-    /// True when every run had a valid result and every study passes.
-    pub fn pass(&self) -> bool {
-        self.problems.is_empty() && self.studies.iter().all(|s| s.pass)
+    /// The verdict of all studies ([`Verdict::combine`]); meaningful when no run lacks a
+    /// result (`problems` is empty).
+    pub fn verdict(&self) -> Verdict {
+        Verdict::combine(self.studies.iter().map(|s| s.verdict))
     }
 }
 
