@@ -1,7 +1,7 @@
 //! Hostile edits of the built-in case files (numbers replaced by 0, nan, 1e300, 10⁹, …, lines
 //! deleted, duplicated or swapped, stray quotes and brackets, truncation; see
 //! `contact_input::mutation`): reading and validating the edited file gives a case or an error,
-//! never a panic (issue 13). A case that validates is also built at its coarsest level, where
+//! never a panic. A case that validates is also built at its coarsest level, where
 //! the memory guard of the studies applies first.
 
 use contact_input::mutation::mutate;

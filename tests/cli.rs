@@ -352,8 +352,7 @@ fn verify_names_the_stability_limit_when_a_stiff_case_fails() {
 }
 
 /// A manufactured field with a pole inside the domain, or a displacement that vanishes, is an
-/// input error naming the key, not a FAIL verdict with errors of 10³ or NaN rates (issue 13
-/// item 5).
+/// input error naming the key, not a FAIL verdict with errors of 10³ or NaN rates.
 #[test]
 fn verify_refuses_a_singular_or_vanishing_manufactured_displacement() {
     let dir = scratch("singular");
@@ -381,7 +380,7 @@ fn verify_refuses_a_singular_or_vanishing_manufactured_displacement() {
 }
 
 /// Studies whose levels cannot fit in memory are refused before the first solve, with the
-/// estimate and the limit, never aborted in an allocation (issue 13 item 2).
+/// estimate and the limit, never aborted in an allocation.
 #[test]
 fn verify_refuses_studies_too_large_for_the_memory_before_solving() {
     let dir = scratch("memory");

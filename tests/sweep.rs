@@ -1,4 +1,4 @@
-//! End-to-end tests of studies beyond one process (issue 12): `verify plan`, `verify run`
+//! End-to-end tests of studies beyond one process: `verify plan`, `verify run`
 //! (`--index`, `--shard`) and `verify merge`, and the results cache of a plain `verify`.
 
 use std::path::{Path, PathBuf};

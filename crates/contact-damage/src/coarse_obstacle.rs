@@ -465,8 +465,8 @@ mod tests {
     /// The layer problem scaled by s = 5e-8 (right-hand side and bounds: the solution scales
     /// with them): from the upper bound everywhere the start residual, at most s, is below
     /// the coarse tolerance, yet the right half and the layer must leave the bound. The band rule
-    /// lets the coarse corrections act; without it (the rule before session 21: none below
-    /// the coarse tolerance) the fine iteration frees the band a few cells per iteration.
+    /// lets the coarse corrections act; without it (no coarse correction below the coarse
+    /// tolerance) the fine iteration frees the band a few cells per iteration.
     #[test]
     fn a_band_left_below_the_coarse_tolerance_is_freed_by_coarse_corrections() {
         let m = 80;

@@ -129,7 +129,7 @@
 //! (sparse Cholesky, AMD ordering, on the first solve) and every reduced system
 //! `A_FF y_F = r_F` of the iteration — one per active-set change — is solved by the
 //! **preconditioned conjugate gradient method** on the free set `F` with that one factor,
-//! instead of a new numeric factorization of `A_FF` per change (issue 10). Why this method:
+//! instead of a new numeric factorization of `A_FF` per change. Why this method:
 //! each iteration costs one solve with the fixed factor (two triangular solves) plus a few
 //! sparse products, the free values of the previous iterate (and of the previous time step)
 //! are the warm start, and the result depends only on the data and the start, never on which
@@ -1356,9 +1356,9 @@ const KKT_LANES: usize = 8;
 ///
 /// Written with comparisons, which compile to the processor's plain min and max
 /// instructions: `f64::max` and `f64::min` must return the other operand for a NaN, which
-/// costs extra instructions on the dependency chain of a Gauss–Seidel sweep (session 23, the
-/// damage step of the 128² benchmark case on an AMD Zen 5: 2.80–3.00 ms per step against
-/// 2.88–3.13 ms, interleaved runs; session 16 saw no change on an earlier machine).
+/// costs extra instructions on the dependency chain of a Gauss–Seidel sweep (the damage step
+/// of the 128² benchmark case on an AMD Zen 5: 2.80–3.00 ms per step against 2.88–3.13 ms,
+/// interleaved runs; no measurable change on an older machine).
 #[inline]
 fn clamp(value: f64, lower: f64, upper: f64) -> f64 {
     if value <= lower {

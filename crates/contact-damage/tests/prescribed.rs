@@ -1,4 +1,4 @@
-//! Prescribed displacement on parts of Γ1, rollers and a moving, negative gap (issue 17):
+//! Prescribed displacement on parts of Γ1, rollers and a moving, negative gap:
 //! - the velocity step (5.1) with prescribed velocities on constrained unknowns satisfies its
 //!   KKT conditions on the free unknowns, recomputed here with this file's own quadrature loop
 //!   for N(v) (linear and nonlinear 𝒜), takes v_c = p_c exactly, and its reactions equal the

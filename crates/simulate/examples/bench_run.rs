@@ -1,4 +1,4 @@
-//! Wall time of a whole `simulate` run of the issue-10 problem, set-up and output included:
+//! Wall time of a whole `simulate` run of the benchmark problem, set-up and output included:
 //!
 //! ```text
 //! cargo run --release -p simulate --example bench_run -- [N] [REPEATS]

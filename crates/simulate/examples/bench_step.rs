@@ -1,4 +1,4 @@
-//! Per-step budget of the `simulate` time loop (issue 10): the time of one step after the first
+//! Per-step budget of the `simulate` time loop: the time of one step after the first
 //! factorization, split into its parts, against two triangular solves with the velocity factor.
 //!
 //! ```text
@@ -28,9 +28,9 @@
 //! substitution), timed 5 times right after each of the five runs of the steps: the table gives
 //! the fastest of these 25 solves and, as the ratio, the median over the runs of the run's full
 //! step over its own fastest solve, so that a ratio never divides times measured minutes apart
-//! on a shared machine (at 128², the same build measured 3.7 ms in the table committed on
-//! 2026-11-26 at 05:58 UTC and 7.4–7.8 ms in two runs at 12:00 UTC). The second table compares the simplicial and
-//! the supernodal Cholesky factorizations of faer for the velocity matrix (its nested
+//! on a shared machine (at 128², the same build measured 3.7 ms in one run and 7.4–7.8 ms in
+//! two runs six hours later). The second table compares the simplicial and the supernodal
+//! Cholesky factorizations of faer for the velocity matrix (its nested
 //! dissection order) and the damage matrix M/k + κK (AMD).
 
 // the machine description of the solver's bench examples
@@ -560,7 +560,7 @@ fn render(
     let cpu = report::cpu_model();
     let cores = std::thread::available_parallelism().map_or(0, |n| n.get());
     let mut out = String::new();
-    let _ = writeln!(out, "# Per-step budget of `simulate` (issue 10)\n");
+    let _ = writeln!(out, "# Per-step budget of `simulate`\n");
     let _ = writeln!(
         out,
         "Command: `{command}`  \nMachine: {cpu}, {cores} cores shared with other jobs (load average at start {load}); one thread per case.  \nDate: {started}.\n"
@@ -599,11 +599,11 @@ fn render(
         out,
         "\n## Simplicial against supernodal Cholesky (faer)\n\nms, numeric factorization (once) / one solve (best of 5; \
          with the supernodal factor the solver's own sweeps, column by column over the supernodes narrower than 32 \
-         columns and faer's dense kernels over the wider ones, since session 17); \
+         columns and faer's dense kernels over the wider ones); \
          *auto* = faer's own choice (flop-ratio rule). The velocity operator uses it (supernodal; the trailing block \
          of the supernodal factor is the condensed operator of (5.1)); the damage box QP needs no factor with the \
          default monotone multigrid, and with the active set method one factor per run: simplicial in 2D, \
-         supernodal in 3D (`simulate`'s choice of `BoxQpSettings::factorization`, since session 18).\n"
+         supernodal in 3D (`simulate`'s choice of `BoxQpSettings::factorization`).\n"
     );
     let _ = writeln!(
         out,

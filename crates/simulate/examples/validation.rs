@@ -1,4 +1,4 @@
-//! Validation of `simulate` against classical analytic solutions of contact mechanics (issue 17):
+//! Validation of `simulate` against classical analytic solutions of contact mechanics:
 //!
 //! - `hertz`: Hertz line contact (plane strain) of a half-disc of radius R on a rigid flat,
 //!   loaded by a prescribed approach δ of its flat side, frictionless: the contact half-width a

@@ -329,7 +329,7 @@ const SUM_BLOCK: usize = 1024;
 /// 128² run of `bench_run`, the mean damage Σ_a β_a ∫φ_a / |Ω| (with |Ω| the sum of the point
 /// weights) erred by 1.5e-12 relative with one running sum and by 5e-15 in blocks; with
 /// |Ω| = Σ_a ∫φ_a in blocks by 3e-16 (against the exact rational sums of the same nodal values;
-/// the cell sums before session 18: 1.8e-13).
+/// sums per cell: 1.8e-13).
 fn blocked_sum(len: usize, term: impl Fn(usize) -> f64) -> f64 {
     (0..len)
         .step_by(SUM_BLOCK)
@@ -753,7 +753,7 @@ pub(crate) mod tests {
             let mut cycle = ForceCycle::default();
             values.map(|v| cycle.push(v)).last().flatten()
         };
-        // a period-2 cycle ±19 % around 1 (the failure of issue 17)
+        // a period-2 cycle ±19 % around 1 (a step above the stability limit)
         let period_two = (0..30).map(|n| if n % 2 == 0 { 1.19 } else { 0.81 });
         assert_eq!(feed(&mut period_two.clone()), Some((0.81, 1.19)));
         // growing: an instability

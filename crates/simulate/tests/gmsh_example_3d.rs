@@ -239,14 +239,14 @@ fn first_load_peak_converges_and_presses_the_contact_face() {
 }
 
 /// On this mesh the condensed friction problem's right-hand side (the force that would stop
-/// all sliding) is hundreds of times the forces of (5.1), so its default relative tolerance
-/// left the velocity KKT residual at 1.5e-10–3e-10 > 1e-10 whatever the refinement passes did
-/// (this variant, contact stiffness 5, stopped at step 7). The velocity step then learned to
-/// measure stationarity against the forces it balances and to tighten the friction tolerance
-/// in refinement passes (step 7 needed one). Since the one-solve path (session 6) computes the
-/// condensed right-hand side as L_cc z_c from the forward half of the solve, instead of
-/// S (H⁻¹ b)_c with its cancellation, every step meets the tolerance in its first pass, with
-/// residuals near 1e-12.
+/// all sliding) is hundreds of times the forces of (5.1), so a tolerance relative to it would
+/// leave the velocity KKT residual at 1.5e-10–3e-10 > 1e-10 whatever the refinement passes did
+/// (this variant, contact stiffness 5, would stop at step 7). The velocity step therefore measures
+/// stationarity against the forces it balances and tightens the friction tolerance in
+/// refinement passes (with the right-hand side S (H⁻¹ b)_c, step 7 needs one). The one-solve
+/// path computes the condensed right-hand side as L_cc z_c from the forward half of the solve,
+/// instead of S (H⁻¹ b)_c with its cancellation, so every step meets the tolerance in its
+/// first pass, with residuals near 1e-12.
 #[test]
 fn velocity_step_meets_its_tolerance_when_the_friction_rhs_dwarfs_the_forces() {
     let text = std::fs::read_to_string(example()).unwrap();

@@ -1,4 +1,4 @@
-//! Hostile input to the `simulate` binary (issue 13): a fresh run never deletes or overwrites a
+//! Hostile input to the `simulate` binary: a fresh run never deletes or overwrites a
 //! file of the user, `--overwrite` and `--resume` remove stale temporaries of our writers and
 //! nothing else, `--threads` out of range and a 3D problem without a contact face are refused
 //! before any work, with a message naming the option or key.
@@ -95,7 +95,7 @@ const STALE: [&str; 4] = [
 fn fresh_run_refuses_a_folder_holding_files_of_the_names_it_writes() {
     let dir = scratch("hostile-data-loss");
     let problem = small_problem(&dir);
-    // the repro of issue 13
+    // a folder of the user's files, two of them named as files the run writes
     let out = dir.join("d");
     std::fs::create_dir_all(&out).unwrap();
     write_user_files(&out); // solution_final.vtu among them
@@ -238,10 +238,9 @@ fn out_that_is_a_file_is_refused_with_its_name() {
 }
 
 /// A contact stiffness or a viscosity that makes k exceed the stability limit of the explicit
-/// terms of (5.1) (issue 13 item 4, issue 17): before this check such runs went to the end with
-/// displacements of 1e9…1e91 and exit code 0. Now they are refused before anything is written,
-/// naming the step, the limit and the remedies; with the implicit normal compliance the stiff
-/// foundation runs.
+/// terms of (5.1): unchecked, such runs go to the end with displacements of 1e9…1e91 and exit
+/// code 0. They are refused before anything is written, naming the step, the limit and the
+/// remedies; with the implicit normal compliance the stiff foundation runs.
 #[test]
 fn step_above_the_stability_limit_is_refused_before_anything_is_written() {
     let dir = scratch("simulate-step-limit");
@@ -299,8 +298,7 @@ fn step_above_the_stability_limit_is_refused_before_anything_is_written() {
 }
 
 /// A load expression undefined at a time between the checks at load (t = 0, T/2, T) stops the
-/// run with the file, the key and the time, not with a degree of freedom of the solver
-/// (issue 13 item 7).
+/// run with the file, the key and the time, not with a degree of freedom of the solver.
 #[test]
 fn a_load_undefined_at_one_time_names_its_key_and_the_time() {
     let dir = scratch("hostile-load-nan");
@@ -372,7 +370,7 @@ fn resuming_a_finished_run_says_there_is_nothing_to_do() {
 }
 
 /// A box of 10¹⁸ cells or a limit below the estimate is refused before the mesh is built, with
-/// the estimate and the limit (issue 13 item 2): no abort, no capacity-overflow panic.
+/// the estimate and the limit: no abort, no capacity-overflow panic.
 #[test]
 fn problems_too_large_for_the_memory_are_refused_before_allocating() {
     let dir = scratch("hostile-memory");

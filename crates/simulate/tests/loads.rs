@@ -1,5 +1,5 @@
-//! Problem files with the loads of issue 17: a prescribed approach of a part of Γ1, a roller,
-//! a moving gap and a load curve; errors that name the file and the key.
+//! Problem files with a prescribed approach of a part of Γ1, a roller, a moving gap and a load
+//! curve; errors that name the file and the key.
 
 use contact_damage::scheme::Simulation;
 use simulate::problem::{LoadCurve, ProblemSetup};

@@ -1,7 +1,7 @@
 //! Hostile edits of the example problem files (see `contact_input::mutation`): reading,
-//! validating and setting up the edited problem gives a setup or an error, never a panic
-//! (issue 13). The memory guard runs first, as in `simulate::run_file`, with a limit of
-//! 0.25 GiB so that an edited cell count cannot make the test allocate much.
+//! validating and setting up the edited problem gives a setup or an error, never a panic.
+//! The memory guard runs first, as in `simulate::run_file`, with a limit of 0.25 GiB so that
+//! an edited cell count cannot make the test allocate much.
 
 use contact_input::mutation::mutate;
 use proptest::prelude::*;

@@ -1,5 +1,5 @@
-//! The validation examples of `verification/validation/` rerun reduced (issue 17): the full
-//! tables come from `cargo run --release -p simulate --example validation` (docs/results/validation.md).
+//! The validation examples of `verification/validation/` rerun reduced: the full tables come
+//! from `cargo run --release -p simulate --example validation` (docs/results/validation.md).
 
 mod common;
 

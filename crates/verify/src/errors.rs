@@ -339,10 +339,11 @@ pub struct ErrorTracker<const D: usize> {
 /// `zones2d` at 128 cells (229 376 points per step), one thread, 16.6 ns per point and step
 /// with one state per evaluation, 13.6 with 8, 13.0 with 16 (`QuantityProgram`
 /// micro-benchmark), and the exact ε(u(t_{n−1})) of the difference quotient is stored once
-/// per block instead of once per step. 16 since session 19 (8 before), with
+/// per block instead of once per step. 16 rather than 8, as
 /// [`crate::manufactured::data::TIMES_PER_EVALUATION`]: `bench_harness` zones2d 128 cells,
 /// one thread, four interleaved pairs, (data + errors) over the solves 1.16 / 1.16 / 1.13 /
-/// 1.21 → 1.10 / 1.05 / 1.07 / 1.07; 32 with 32 times per evaluation was no better.
+/// 1.21 with 8 → 1.10 / 1.05 / 1.07 / 1.07 with 16; 32 with 32 times per evaluation is no
+/// better.
 pub const STATES_PER_BLOCK: usize = 16;
 
 /// Most bytes the pending states of an [`ErrorTracker`] may hold.

@@ -50,14 +50,14 @@ use super::Program;
 /// on the batch: every point gets the operations of the point-by-point evaluation.
 ///
 /// Measured on `zones2d` at 128 cells, k = h, one thread (`bench_harness` and a probe of its
-/// run, interleaved with the previous build on the 2-core AMD EPYC of session 22, family 26,
-/// 48 KiB L1d and 1 MiB L2 per core): data + errors 1.10 / 1.16 s with 32 points per batch,
+/// run, interleaved with a build of 32 points per batch on a 2-core AMD EPYC of family 26,
+/// Zen 5, 48 KiB L1d and 1 MiB L2 per core): data + errors 1.10 / 1.16 s with 32 points per batch,
 /// 0.94 / 0.94 s with 128 (data 0.52 / 0.55 → 0.43 / 0.43 s, errors 0.57 / 0.61 → 0.51 /
 /// 0.51 s); in probe pairs data 0.53–0.56 s with 32, 0.45–0.52 with 64, 0.39–0.46 with 128,
 /// 0.42 with 256. `simulate`'s 128² run is the same with 32 or 128 (1.61–1.67 s fastest in
-/// three pairs). 32 had been chosen in session 6, before the AVX2 loop and the evaluation at
-/// several times per call (data 3.11 s with 128 points per batch, 2.26 s with 32 then), and
-/// session 19 measured 64 within the noise.
+/// three pairs). Without the AVX2 loop and the evaluation at several times per call, 32 is the
+/// faster (data 3.11 s with 128 points per batch, 2.26 s with 32); a separate comparison found
+/// 64 within the noise of 32.
 pub const BATCH: usize = 128;
 
 /// A [`Program`] split into its time-independent and time-dependent parts, with a cache of the

@@ -158,8 +158,8 @@ struct SupplyHandOver {
 /// of the bulk program (28 per point in 2D) are read from memory once for all of them.
 /// Measured over 196 608 points of `zones2d` (the 128-cell level), one thread: 52 ns per
 /// point and time with one time per call, 41 with 2, 30 with 4, 27 with 8, 25 with 16 (the
-/// rate of 16 384 points, whose values stay in the cache, is 25–27 ns). 16 since session 19
-/// (see [`crate::errors::STATES_PER_BLOCK`]); the solver caps a block at
+/// rate of 16 384 points, whose values stay in the cache, is 25–27 ns). 16, as
+/// [`crate::errors::STATES_PER_BLOCK`] (measured there); the solver caps a block at
 /// [`contact_damage::loads::BULK_DATA_BYTES`] (14 times at 128 cells).
 pub const TIMES_PER_EVALUATION: usize = 16;
 
