@@ -4,7 +4,7 @@
 //! (`sweep::plan::CODE_VERSION`), so that results cached by an earlier build of different code
 //! are recomputed rather than reused.
 
-use std::hash::{DefaultHasher, Hasher};
+use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 
 fn files(dir: &Path, out: &mut Vec<PathBuf>) {
@@ -37,17 +37,20 @@ fn main() {
     println!("cargo:rerun-if-changed={}", lock.display());
     sources.sort();
     sources.push(lock);
-    // SipHash with fixed keys: the same sources give the same fingerprint on every machine
-    let mut hasher = DefaultHasher::new();
+    // SHA-256 of every file's name and length-prefixed content: the same sources give the
+    // same fingerprint on every machine and with every toolchain
+    let mut hasher = Sha256::new();
     for path in &sources {
         if let Ok(text) = std::fs::read(path) {
             let name = path.strip_prefix(&manifest).unwrap_or(path);
-            hasher.write(name.to_string_lossy().as_bytes());
-            hasher.write(&text);
+            let name = name.to_string_lossy();
+            hasher.update((name.len() as u64).to_le_bytes());
+            hasher.update(name.as_bytes());
+            hasher.update((text.len() as u64).to_le_bytes());
+            hasher.update(&text);
         }
     }
-    println!(
-        "cargo:rustc-env=VERIFY_SOURCE_FINGERPRINT={:016x}",
-        hasher.finish()
-    );
+    let digest = hasher.finalize();
+    let hex: String = digest[..8].iter().map(|b| format!("{b:02x}")).collect();
+    println!("cargo:rustc-env=VERIFY_SOURCE_FINGERPRINT={hex}");
 }

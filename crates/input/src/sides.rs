@@ -1,9 +1,33 @@
-//! The sides of a box domain (`domain.sides` of case files, `mesh.box.sides` of problem files):
-//! which boundary part Γ1 (clamped), Γ2 (traction) or Γ3 (contact) each side belongs to.
+//! The boundary parts of a domain: which part Γ1 (clamped), Γ2 (traction) or Γ3 (contact) each
+//! side of a box belongs to (`domain.sides` of case files, `mesh.box.sides` of problem files),
+//! and the physical groups of a Gmsh mesh that make up each part ([`GroupFile`]).
 
 use std::collections::BTreeMap;
 
+use contact_damage::gmsh::GroupRef;
 use contact_damage::mesh::BoundaryPart;
+use serde::Deserialize;
+
+/// A physical group of a Gmsh mesh, by name (`"contact"`) or by tag (`7`), as the lists of
+/// groups of each boundary part are written in case and problem files.
+#[derive(Debug, Clone, PartialEq, Eq, Deserialize)]
+#[serde(untagged)]
+pub enum GroupFile {
+    /// By `$PhysicalNames` name.
+    Name(String),
+    /// By physical tag.
+    Tag(i32),
+}
+
+impl GroupFile {
+    /// The group as the mesh reader takes it.
+    pub fn to_ref(&self) -> GroupRef {
+        match self {
+            GroupFile::Name(name) => GroupRef::Name(name.clone()),
+            GroupFile::Tag(tag) => GroupRef::Tag(*tag),
+        }
+    }
+}
 
 use crate::error::{FileKind, InputError};
 

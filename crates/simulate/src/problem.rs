@@ -82,7 +82,7 @@ use contact_input::expr::{Expr, Program};
 use contact_input::file::{parse_expr, parse_toml};
 use contact_input::laws::LawsFile;
 use contact_input::scheme::SchemeFile;
-use contact_input::sides::{component_index, parse_sides, prescribed_sides};
+use contact_input::sides::{component_index, parse_sides, prescribed_sides, GroupFile};
 use contact_input::{FileKind, InputError};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
@@ -184,16 +184,6 @@ pub struct BoxFile {
     /// Side (`x_min`, …) → `clamped`, `traction` or `contact`; unlisted sides are traction.
     #[serde(default)]
     pub sides: BTreeMap<String, String>,
-}
-
-/// A physical group named or numbered.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(untagged)]
-pub enum GroupFile {
-    /// By `$PhysicalNames` name.
-    Name(String),
-    /// By physical tag.
-    Tag(i32),
 }
 
 /// `mesh.gmsh`.
@@ -641,12 +631,7 @@ impl<const D: usize> BatchBoundaryVectorField<D> for BatchLoad<D> {
 }
 
 fn groups(list: &[GroupFile]) -> Vec<GroupRef> {
-    list.iter()
-        .map(|g| match g {
-            GroupFile::Name(name) => GroupRef::Name(name.clone()),
-            GroupFile::Tag(tag) => GroupRef::Tag(*tag),
-        })
-        .collect()
+    list.iter().map(GroupFile::to_ref).collect()
 }
 
 impl<const D: usize> ProblemSetup<D> {

@@ -12,7 +12,7 @@ use contact_damage::memory::{check, estimate, estimate_box, MemoryEstimate};
 
 /// Refuses the studies `names` of order `degree` of `case` (each cut to its first `levels`
 /// levels) if the largest needs more than `limit` bytes.
-pub fn check_studies<const D: usize>(
+pub fn check_memory<const D: usize>(
     case: &Case<D>,
     degree: usize,
     names: &[String],

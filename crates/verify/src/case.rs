@@ -23,7 +23,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::sync::Arc;
 
-pub use crate::domain::{DomainFile, GroupFile};
+pub use crate::domain::DomainFile;
 pub use contact_input::laws::{
     ContactFile, DamageSourceFile, ElasticityFile, ExpressionDamageSource, ExpressionModuli,
     ExpressionPotential, LawsFile, ViscosityFile, MODULI_VARIABLES, POTENTIAL_VARIABLES,
@@ -31,6 +31,7 @@ pub use contact_input::laws::{
 };
 pub use contact_input::scheme::{ContactTreatmentFile, SchemeFile};
 pub use contact_input::sides::parse_sides;
+pub use contact_input::sides::GroupFile;
 
 /// The variables of the exact-field expressions.
 pub const FIELD_VARIABLES: [&str; 4] = ["x", "y", "z", "t"];
@@ -185,7 +186,7 @@ pub struct Case<const D: usize> {
 /// undefined; cells ≥ 1, refinements ≥ 0) and steps ≥ 1, nondecreasing; k-studies with
 /// `cells` ≥ 1 or `refinements` as the domain needs, ≥ 2 step counts ≥ 1, strictly increasing,
 /// and a reference that is a multiple of each and finer than all.
-fn check_studies(
+fn check_study_definitions(
     origin: &str,
     studies: &BTreeMap<String, StudySet>,
     mesh_domain: bool,
@@ -444,7 +445,7 @@ impl<const D: usize> Case<D> {
             ));
         }
         positive(FileKind::Case, origin, "final_time", file.final_time)?;
-        check_studies(origin, &file.studies, file.domain.is_mesh())?;
+        check_study_definitions(origin, &file.studies, file.domain.is_mesh())?;
         let (domain, prescribed) = build_domain::<D>(&file, origin)?;
         let constants = &file.constants;
         if !file.scheme.damage {

@@ -191,7 +191,7 @@ pub const DEFAULT_OUT: &str = "out";
 pub const STUDY_NAMES: [&str; 3] = ["h", "k", "diagonal"];
 
 /// Checks `--studies` before anything is computed: every name is one of [`STUDY_NAMES`].
-pub fn check_studies(studies: &[String]) -> Result<(), VerifyError> {
+pub fn check_study_names(studies: &[String]) -> Result<(), VerifyError> {
     match studies
         .iter()
         .find(|name| !STUDY_NAMES.contains(&name.as_str()))
@@ -354,7 +354,7 @@ fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), VerifyError> {
         )));
     }
     set_threads(args.threads)?;
-    check_studies(&args.studies)?;
+    check_study_names(&args.studies)?;
     let memory_limit = match args.memory_limit {
         None => contact_damage::memory::default_limit(),
         Some(gib) if gib.is_finite() && gib > 0.0 => gib * contact_damage::memory::GIB,
@@ -372,10 +372,10 @@ fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), VerifyError> {
         let (order, studies, levels) = (args.order, &args.studies, args.levels);
         match case {
             CaseRef::Two(case) => {
-                crate::budget::check_studies(case, order, studies, levels, memory_limit)
+                crate::budget::check_memory(case, order, studies, levels, memory_limit)
             }
             CaseRef::Three(case) => {
-                crate::budget::check_studies(case, order, studies, levels, memory_limit)
+                crate::budget::check_memory(case, order, studies, levels, memory_limit)
             }
         }
     })?;

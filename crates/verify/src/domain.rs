@@ -21,8 +21,9 @@
 //! The mesh of a built-in case is compiled into the program ([`BUILT_IN_MESHES`]).
 
 use crate::VerifyError;
-use contact_damage::gmsh::{parse_msh_bytes, GroupRef, PhysicalMap};
+use contact_damage::gmsh::{parse_msh_bytes, PhysicalMap};
 use contact_damage::mesh::{refine_times, BoundaryPart, Mesh};
+use contact_input::sides::GroupFile;
 use contact_input::FileKind;
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -76,25 +77,6 @@ impl DomainFile {
     /// Whether the domain is a Gmsh mesh (else a box).
     pub fn is_mesh(&self) -> bool {
         self.mesh.is_some()
-    }
-}
-
-/// A physical group by name (`"contact"`) or by tag (`7`).
-#[derive(Debug, Clone, Deserialize)]
-#[serde(untagged)]
-pub enum GroupFile {
-    /// By `$PhysicalNames` name.
-    Name(String),
-    /// By physical tag.
-    Tag(i32),
-}
-
-impl GroupFile {
-    fn to_ref(&self) -> GroupRef {
-        match self {
-            GroupFile::Name(name) => GroupRef::Name(name.clone()),
-            GroupFile::Tag(tag) => GroupRef::Tag(*tag),
-        }
     }
 }
 
