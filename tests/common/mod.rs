@@ -33,9 +33,51 @@ pub const TOLERANCE: f64 = 0.15;
 /// Levels of the least-squares fit, restated.
 pub const FIT: usize = 3;
 
-/// A row of a baseline: (study, level, steps) → the error components in the order of
-/// `ErrorComponents::NAMES` (None for `—`).
-pub type Baseline = BTreeMap<(String, usize, usize), Vec<Option<f64>>>;
+/// The solver's work and the contact zones of a run, pinned exactly: iteration counts of the
+/// velocity step (5.1), of its friction problems and of the damage step (5.2), and the steps in
+/// which each contact status and each damage bound occurred. They do not depend on round-off
+/// (one-ulp perturbations of the law constants leave every count of every built-in study
+/// unchanged), and a change of how a solver finds its solution — a Newton direction, a line
+/// search, a stopping rule — shows in them even where the solution, certified to its tolerance,
+/// does not move.
+pub const PINNED_COUNTS: [&str; 9] = [
+    "newton_iterations",
+    "max_newton_iterations",
+    "friction_iterations",
+    "damage_iterations",
+    "steps_with_separation",
+    "steps_with_stick",
+    "steps_with_slip",
+    "steps_with_lower_bound",
+    "steps_with_upper_bound",
+];
+
+/// The counts of [`PINNED_COUNTS`] of a run.
+pub fn counts(run: &RunResult) -> [usize; 9] {
+    let stats = &run.stats;
+    [
+        stats.newton_iterations,
+        stats.max_newton_iterations,
+        stats.friction_iterations,
+        stats.damage_iterations,
+        stats.steps_with_separation,
+        stats.steps_with_stick,
+        stats.steps_with_slip,
+        stats.steps_with_lower_bound,
+        stats.steps_with_upper_bound,
+    ]
+}
+
+/// A row of a baseline.
+pub struct BaselineRow {
+    /// The error components in the order of `ErrorComponents::NAMES` (None for `—`).
+    pub errors: Vec<Option<f64>>,
+    /// The counts of [`PINNED_COUNTS`].
+    pub counts: Vec<usize>,
+}
+
+/// The rows of a baseline by (study, level, steps).
+pub type Baseline = BTreeMap<(String, usize, usize), BaselineRow>;
 
 /// The rows of `reports/<case>/l<order>/errors.csv`, read here with the csv crate alone.
 pub fn baseline(name: &str, order: usize) -> (PathBuf, Baseline) {
@@ -60,19 +102,28 @@ pub fn baseline(name: &str, order: usize) -> (PathBuf, Baseline) {
             record[column("cells")].parse().unwrap(),
             record[column("steps")].parse().unwrap(),
         );
-        let values = ErrorComponents::NAMES
+        let errors = ErrorComponents::NAMES
             .iter()
             .map(|name| record[column(name)].parse::<f64>().ok())
             .collect();
-        rows.insert(key, values);
+        let counts = PINNED_COUNTS
+            .iter()
+            .map(|name| {
+                record[column(name)]
+                    .parse::<usize>()
+                    .unwrap_or_else(|e| panic!("{}: {name}: {e}", path.display()))
+            })
+            .collect();
+        rows.insert(key, BaselineRow { errors, counts });
     }
     (path, rows)
 }
 
-/// The differences between the errors of `study` (of case `name`) and the committed baseline:
+/// The differences between the runs of `study` (of case `name`) and the committed baseline:
 /// every error component of every run against the baseline row with the same study kind, level
-/// and steps, each difference above [`PINNED_TOLERANCE`] (relative) or a missing row as one
-/// line naming the row, the component and both values.
+/// and steps (a difference above [`PINNED_TOLERANCE`], relative), and every count of
+/// [`PINNED_COUNTS`] (any difference), each as one line naming the row, the quantity and both
+/// values; a missing row as one line.
 pub fn pinned_mismatches(name: &str, study: &StudyResult) -> Vec<String> {
     let (path, rows) = baseline(name, study.degree);
     let mut mismatches = Vec::new();
@@ -91,7 +142,7 @@ pub fn pinned_mismatches(name: &str, study: &StudyResult) -> Vec<String> {
         for ((component, value), pinned) in ErrorComponents::NAMES
             .iter()
             .zip(run.errors.values())
-            .zip(pinned)
+            .zip(&pinned.errors)
         {
             let now = value.is_finite().then_some(value);
             let agrees = match (now, *pinned) {
@@ -108,16 +159,25 @@ pub fn pinned_mismatches(name: &str, study: &StudyResult) -> Vec<String> {
                 ));
             }
         }
+        for ((name, now), pinned) in PINNED_COUNTS.iter().zip(counts(run)).zip(&pinned.counts) {
+            if now != *pinned {
+                mismatches.push(format!(
+                    "{}-study level {} with {} steps, {name}: now {now}, baseline {pinned}",
+                    key.0, key.1, key.2
+                ));
+            }
+        }
     }
     mismatches
 }
 
-/// Fails unless the errors of `study` equal the committed baseline ([`pinned_mismatches`]).
+/// Fails unless the errors and counts of `study` equal the committed baseline
+/// ([`pinned_mismatches`]).
 pub fn assert_pinned(name: &str, study: &StudyResult) {
     let mismatches = pinned_mismatches(name, study);
     assert!(
         mismatches.is_empty(),
-        "{name} l{}: errors differ from the committed baseline by more than {PINNED_TOLERANCE:e} (relative); \
+        "{name} l{}: errors (by more than {PINNED_TOLERANCE:e}, relative) or counts differ from the committed baseline; \
          if the change is intended, regenerate it with `cargo run --release -p verify -- baseline --case {name}` \
          and review the values it lists as moved:\n{}",
         study.degree,

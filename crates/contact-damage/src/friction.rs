@@ -1870,9 +1870,11 @@ mod tests {
         let kinds = random_kinds(8, &mut generator);
         let manufactured = Manufactured::new(&kinds, 2, (0.5, 2.0), &mut generator);
         let problem = manufactured.problem();
-        assert!(problem.kkt_residual(&manufactured.solution) <= 1e-13);
+        let at_solution = problem.kkt_residual(&manufactured.solution);
+        assert!((0.0..=1e-13).contains(&at_solution), "{at_solution:e}");
         let report = problem.kkt_report(&[0.0; 16]);
         assert!(report.natural > 1e-3);
+        assert_eq!(problem.kkt_residual(&[0.0; 16]), report.natural);
         // J at the solution is below J at nearby points (strict convexity).
         let best = problem.objective(&manufactured.solution);
         for _ in 0..10 {
