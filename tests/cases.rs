@@ -515,7 +515,7 @@ fn tilted_case_on_disk(
     replace: &str,
     with: &str,
     mesh: Option<&[u8]>,
-) -> (tempfile::TempDir, Result<Case<2>, verify::VerifyError>) {
+) -> (tempfile::TempDir, Result<Case<2>, verify::InputError>) {
     assert!(TILTED2D.contains(replace), "test setup: `{replace}`");
     let folder = tempfile::tempdir().unwrap();
     if let Some(bytes) = mesh {

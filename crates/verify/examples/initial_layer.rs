@@ -16,7 +16,7 @@ use contact_damage::scheme::{Simulation, State};
 use contact_damage::space::LagrangeSpace;
 use std::process::ExitCode;
 use verify::case::{read_case_file, Case};
-use verify::VerifyError;
+use verify::InputError;
 
 /// ‖∇e‖² and ‖e‖² of the nodal field `e` by a rule of degree 2l.
 fn squared_norms(space: &LagrangeSpace<2>, rule: &QuadratureRule<2>, error: &[f64]) -> (f64, f64) {
@@ -37,7 +37,7 @@ fn all_states(
     cells: usize,
     degree: usize,
     steps: usize,
-) -> Result<Vec<State>, VerifyError> {
+) -> Result<Vec<State>, InputError> {
     let mut simulation = Simulation::new(case.problem(cells, degree, steps)?)?;
     let mut states = vec![simulation.state().clone()];
     simulation.run(|report| {
@@ -52,10 +52,10 @@ fn profile(
     cells: usize,
     degree: usize,
     reference_steps: usize,
-) -> Result<(), VerifyError> {
+) -> Result<(), InputError> {
     let file = read_case_file(std::path::Path::new(path))?;
     if file.dim != 2 {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "{path}: a 2D case is needed"
         )));
     }

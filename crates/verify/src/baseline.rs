@@ -4,7 +4,7 @@
 //! baseline` ([`crate::cli`]) regenerates the baseline and prints that list.
 
 use crate::errors::ErrorComponents;
-use crate::VerifyError;
+use crate::InputError;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -74,9 +74,9 @@ impl BaselineErrors {
     /// Reads `errors.csv` as written by [`crate::report::write_reports`]; an unreadable file, a
     /// missing column or a value that is neither a number nor `—` is an error naming the file
     /// and the line.
-    pub fn read(path: &Path) -> Result<Self, VerifyError> {
+    pub fn read(path: &Path) -> Result<Self, InputError> {
         let bad = |message: String| {
-            VerifyError::InvalidInput(format!("baseline {}: {message}", path.display()))
+            InputError::InvalidInput(format!("baseline {}: {message}", path.display()))
         };
         let mut reader = csv::Reader::from_path(path).map_err(|e| bad(e.to_string()))?;
         let headers = reader.headers().map_err(|e| bad(e.to_string()))?.clone();
@@ -157,7 +157,7 @@ mod tests {
     const HEADER: &str =
         "case,study,cells,steps,displacement,difference_quotient,damage,damage_gradient,total,velocity,wall_seconds\n";
 
-    fn baseline(rows: &str) -> Result<BaselineErrors, VerifyError> {
+    fn baseline(rows: &str) -> Result<BaselineErrors, InputError> {
         let scratch = tempfile::tempdir().unwrap();
         let path = scratch.path().join("errors.csv");
         std::fs::write(&path, format!("{HEADER}{rows}")).unwrap();

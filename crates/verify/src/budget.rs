@@ -7,7 +7,7 @@
 
 use crate::case::Case;
 use crate::domain::Domain;
-use crate::VerifyError;
+use crate::InputError;
 use contact_damage::memory::{check, estimate, estimate_box, MemoryEstimate};
 
 /// Refuses the studies `names` of order `degree` of `case` (each cut to its first `levels`
@@ -18,7 +18,7 @@ pub fn check_memory<const D: usize>(
     names: &[String],
     levels: Option<usize>,
     limit: f64,
-) -> Result<(), VerifyError> {
+) -> Result<(), InputError> {
     let Some(set) = case.file.studies.get(&format!("order{degree}")) else {
         return Ok(());
     };

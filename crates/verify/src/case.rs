@@ -10,7 +10,7 @@ use crate::manufactured::data::{
     BodyForce, ContactTraction, DamageFlux, DamageSupply, ExactPrograms, ManufacturedData, Traction,
 };
 use crate::manufactured::{value, ExactSolution, Laws};
-use crate::VerifyError;
+use crate::InputError;
 use contact_damage::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::{
     Data, PointScalarField, PrescribedDisplacement, Problem, SchemeSettings,
@@ -190,7 +190,7 @@ fn check_study_definitions(
     origin: &str,
     studies: &BTreeMap<String, StudySet>,
     mesh_domain: bool,
-) -> Result<(), VerifyError> {
+) -> Result<(), InputError> {
     let (wanted, other) = if mesh_domain {
         ("refinements", "cells")
     } else {
@@ -319,7 +319,7 @@ fn check_study_definitions(
 fn build_domain<const D: usize>(
     file: &CaseFile,
     origin: &str,
-) -> Result<(Domain<D>, Vec<PrescribedSide<D>>), VerifyError> {
+) -> Result<(Domain<D>, Vec<PrescribedSide<D>>), InputError> {
     let domain = &file.domain;
     if domain.is_mesh() {
         for (key, given) in [
@@ -416,19 +416,19 @@ fn build_domain<const D: usize>(
     ))
 }
 
-fn case_error(origin: &str, key: &str, message: impl Into<String>) -> VerifyError {
+fn case_error(origin: &str, key: &str, message: impl Into<String>) -> InputError {
     FileKind::Case.error(origin, key, message)
 }
 
 /// Reads and parses a case file (TOML syntax errors carry line and column).
-pub fn read_case_file(path: &Path) -> Result<CaseFile, VerifyError> {
+pub fn read_case_file(path: &Path) -> Result<CaseFile, InputError> {
     let text =
-        std::fs::read_to_string(path).map_err(|e| VerifyError::io("reading case file", path, e))?;
+        std::fs::read_to_string(path).map_err(|e| InputError::io("reading case file", path, e))?;
     parse_case_file(&text, &path.display().to_string())
 }
 
 /// Parses case-file text; `origin` names it in errors.
-pub fn parse_case_file(text: &str, origin: &str) -> Result<CaseFile, VerifyError> {
+pub fn parse_case_file(text: &str, origin: &str) -> Result<CaseFile, InputError> {
     parse_toml(text, FileKind::Case, origin)
 }
 
@@ -436,7 +436,7 @@ impl<const D: usize> Case<D> {
     /// Validates the case file and builds the laws and exact fields. Checks, at sampled points,
     /// that u = 0 on Γ1, β ∈ [0, 1], |ξ_τ| < 1 on Γ3, η ∈ ∂ψ_K(β) and that g is finite on Γ3
     /// (a gap may move and be negative).
-    pub fn new(file: CaseFile, origin: &str) -> Result<Self, VerifyError> {
+    pub fn new(file: CaseFile, origin: &str) -> Result<Self, InputError> {
         if file.dim != D {
             return Err(case_error(
                 origin,
@@ -470,7 +470,7 @@ impl<const D: usize> Case<D> {
                 format!("need {D} components, got {}", exact_file.u.len()),
             ));
         }
-        let vector = |key: &str, sources: &[String]| -> Result<[Expr; D], VerifyError> {
+        let vector = |key: &str, sources: &[String]| -> Result<[Expr; D], InputError> {
             let parsed: Vec<Expr> = sources
                 .iter()
                 .enumerate()
@@ -539,7 +539,7 @@ impl<const D: usize> Case<D> {
     /// [`crate::smoothness`]: on the edges of a lattice of a box, or of the mesh refined once)
     /// and u does not vanish identically (the displacement and velocity errors would then
     /// measure round-off, and their rates would be 0/0).
-    fn check_smooth(&self) -> Result<(), VerifyError> {
+    fn check_smooth(&self) -> Result<(), InputError> {
         let times = [0.0, 0.5 * self.file.final_time, self.file.final_time];
         let (segments, points) = match &self.domain {
             Domain::Box { lower, upper, .. } => {
@@ -605,7 +605,7 @@ impl<const D: usize> Case<D> {
 
     /// Checks the fields at sample points (a lattice of the box including its boundary, or the
     /// vertices of the mesh refined once and points of every boundary facet) at several times.
-    fn check_samples(&self) -> Result<(), VerifyError> {
+    fn check_samples(&self) -> Result<(), InputError> {
         match &self.domain {
             Domain::Box {
                 lower,
@@ -668,7 +668,7 @@ impl<const D: usize> Case<D> {
         &self,
         x: &[f64; D],
         parts: &[(BoundaryPart, [f64; D])],
-    ) -> Result<(), VerifyError> {
+    ) -> Result<(), InputError> {
         let origin = &self.origin;
         let x = *x;
         let times: Vec<f64> = (0..=4)
@@ -750,7 +750,7 @@ impl<const D: usize> Case<D> {
 
     /// The mesh of a study level: the box with `level` intervals per side, or the Gmsh mesh
     /// refined `level` times.
-    pub fn mesh(&self, level: usize) -> Result<Mesh<D>, VerifyError> {
+    pub fn mesh(&self, level: usize) -> Result<Mesh<D>, InputError> {
         Ok(self.domain.mesh(level)?)
     }
 
@@ -761,7 +761,7 @@ impl<const D: usize> Case<D> {
         level: usize,
         degree: usize,
         steps: usize,
-    ) -> Result<Problem<D>, VerifyError> {
+    ) -> Result<Problem<D>, InputError> {
         let laws = self.laws.clone();
         let exact = Arc::new(self.exact.clone());
         // A copy of the programs with empty caches: each run caches its own points.
@@ -856,7 +856,7 @@ mod tests {
     fn case<const D: usize>(
         text: &str,
         replacements: &[(&str, &str)],
-    ) -> Result<Case<D>, VerifyError> {
+    ) -> Result<Case<D>, InputError> {
         let mut text = text.to_string();
         for (from, to) in replacements {
             assert!(text.contains(from), "test setup: `{from}` not in the case");

@@ -7,7 +7,7 @@ use crate::sweep::merge::{merge, write_study_reports};
 use crate::sweep::plan::{plan, read_manifest, write_manifest, Manifest};
 use crate::sweep::run::{execute, Executed};
 use crate::sweep::shard::{parse_shard, shard};
-use crate::VerifyError;
+use crate::InputError;
 use clap::Parser;
 pub use contact_input::threads::{max_threads, set_threads};
 use std::path::{Path, PathBuf};
@@ -191,12 +191,12 @@ pub const DEFAULT_OUT: &str = "out";
 pub const STUDY_NAMES: [&str; 3] = ["h", "k", "diagonal"];
 
 /// Checks `--studies` before anything is computed: every name is one of [`STUDY_NAMES`].
-pub fn check_study_names(studies: &[String]) -> Result<(), VerifyError> {
+pub fn check_study_names(studies: &[String]) -> Result<(), InputError> {
     match studies
         .iter()
         .find(|name| !STUDY_NAMES.contains(&name.as_str()))
     {
-        Some(unknown) => Err(VerifyError::InvalidInput(format!(
+        Some(unknown) => Err(InputError::InvalidInput(format!(
             "--studies: unknown study `{unknown}` (use h, k, diagonal, comma-separated)"
         ))),
         None => Ok(()),
@@ -205,9 +205,9 @@ pub fn check_study_names(studies: &[String]) -> Result<(), VerifyError> {
 
 /// Makes sure that the reports can be written into the folder `out` (`--out`) before anything
 /// is computed: it is a folder or can be created as one, and a file can be created in it.
-pub fn check_out(out: &std::path::Path) -> Result<(), VerifyError> {
+pub fn check_out(out: &std::path::Path) -> Result<(), InputError> {
     let refuse =
-        |reason: String| VerifyError::InvalidInput(format!("--out `{}`: {reason}", out.display()));
+        |reason: String| InputError::InvalidInput(format!("--out `{}`: {reason}", out.display()));
     // the nearest existing ancestor must be a folder
     let mut existing = out;
     while !existing.as_os_str().is_empty() && !existing.exists() {
@@ -234,14 +234,14 @@ pub fn check_out(out: &std::path::Path) -> Result<(), VerifyError> {
 
 /// The text and origin of the case named on the command line (or the default one for the
 /// dimension).
-pub fn load_case(args: &StudyArgs) -> Result<(String, String), VerifyError> {
+pub fn load_case(args: &StudyArgs) -> Result<(String, String), InputError> {
     let name = match &args.case {
         Some(name) => name.clone(),
         None => match args.dim {
             2 => "zones2d".to_string(),
             3 => "zones3d".to_string(),
             other => {
-                return Err(VerifyError::InvalidInput(format!(
+                return Err(InputError::InvalidInput(format!(
                     "--dim must be 2 or 3, got {other}"
                 )))
             }
@@ -252,7 +252,7 @@ pub fn load_case(args: &StudyArgs) -> Result<(String, String), VerifyError> {
     }
     let path = PathBuf::from(&name);
     let text = std::fs::read_to_string(&path)
-        .map_err(|e| VerifyError::io("reading case file", &path, e))?;
+        .map_err(|e| InputError::io("reading case file", &path, e))?;
     Ok((text, path.display().to_string()))
 }
 
@@ -346,9 +346,9 @@ pub fn print_study(study: &StudyResult) {
 }
 
 /// Checks the options of a study, then plans it; returns the manifest and the report folder.
-fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), VerifyError> {
+fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), InputError> {
     if !(1..=2).contains(&args.order) {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "--order must be 1 or 2, got {}",
             args.order
         )));
@@ -359,7 +359,7 @@ fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), VerifyError> {
         None => contact_damage::memory::default_limit(),
         Some(gib) if gib.is_finite() && gib > 0.0 => gib * contact_damage::memory::GIB,
         Some(gib) => {
-            return Err(VerifyError::InvalidInput(format!(
+            return Err(InputError::InvalidInput(format!(
                 "--memory-limit {gib}: must be a positive number of GiB"
             )))
         }
@@ -392,12 +392,12 @@ fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), VerifyError> {
 fn with_case<T>(
     file: CaseFile,
     origin: &str,
-    work: impl FnOnce(CaseRef<'_>) -> Result<T, VerifyError>,
-) -> Result<T, VerifyError> {
+    work: impl FnOnce(CaseRef<'_>) -> Result<T, InputError>,
+) -> Result<T, InputError> {
     match file.dim {
         2 => work(CaseRef::Two(&Case::<2>::new(file, origin)?)),
         3 => work(CaseRef::Three(&Case::<3>::new(file, origin)?)),
-        other => Err(VerifyError::InvalidInput(format!(
+        other => Err(InputError::InvalidInput(format!(
             "{origin}: dim must be 2 or 3, got {other}"
         ))),
     }
@@ -415,7 +415,7 @@ fn execute_manifest(
     selection: &[usize],
     results: &Path,
     fresh: bool,
-) -> Result<Executed, VerifyError> {
+) -> Result<Executed, InputError> {
     let file = parse_case_file(&manifest.case_text, &manifest.origin)?;
     with_case(file, &manifest.origin, |case| match case {
         CaseRef::Two(case) => execute(case, manifest, selection, results, fresh),
@@ -465,7 +465,7 @@ fn merge_and_report(
     manifest: &Manifest,
     results: &Path,
     out: &Path,
-) -> Result<Outcome, VerifyError> {
+) -> Result<Outcome, InputError> {
     let merged = merge(manifest, results)?;
     if !merged.problems.is_empty() {
         println!(
@@ -496,7 +496,7 @@ fn merge_and_report(
 }
 
 /// Runs the command line; returns how it ended ([`Outcome`]).
-pub fn main_with(cli: Cli) -> Result<Outcome, VerifyError> {
+pub fn main_with(cli: Cli) -> Result<Outcome, InputError> {
     match cli.command {
         None => run_in_process(&cli.study, cli.fresh),
         Some(Command::Plan { study, manifest }) => {
@@ -529,7 +529,7 @@ pub fn main_with(cli: Cli) -> Result<Outcome, VerifyError> {
                     shard(&planned, i, n)
                 }
                 (None, None) => {
-                    return Err(VerifyError::InvalidInput(
+                    return Err(InputError::InvalidInput(
                         "verify run: give --index I or --shard I/N".to_string(),
                     ))
                 }
@@ -571,7 +571,7 @@ pub fn main_with(cli: Cli) -> Result<Outcome, VerifyError> {
 
 /// A whole study in this process: plan (the manifest `<out>/manifest.json`), run the runs that
 /// `<out>/runs/` does not hold yet (all with `fresh`), merge and report.
-fn run_in_process(args: &StudyArgs, fresh: bool) -> Result<Outcome, VerifyError> {
+fn run_in_process(args: &StudyArgs, fresh: bool) -> Result<Outcome, InputError> {
     let (manifest, out) = plan_study(args)?;
     check_out(&out)?;
     let started = std::time::Instant::now();
@@ -603,24 +603,24 @@ fn regenerate_baseline(
     tolerance: f64,
     threads: Option<usize>,
     fresh: bool,
-) -> Result<Outcome, VerifyError> {
+) -> Result<Outcome, InputError> {
     use crate::baseline::{baseline_path, BaselineErrors};
     if let Some(unknown) = cases
         .iter()
         .find(|name| !BUILT_IN_CASES.iter().any(|(n, _)| n == name))
     {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "--case `{unknown}`: the baseline holds the built-in cases only ({})",
             BUILT_IN_CASES.map(|(n, _)| n).join(", ")
         )));
     }
     if let Some(order) = orders.iter().find(|o| !(1..=2).contains(*o)) {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "--order must be 1 or 2, got {order}"
         )));
     }
     if !(tolerance.is_finite() && tolerance >= 0.0) {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "--tolerance {tolerance}: must be a finite number ≥ 0"
         )));
     }

@@ -20,7 +20,7 @@
 //!
 //! The mesh of a built-in case is compiled into the program ([`BUILT_IN_MESHES`]).
 
-use crate::VerifyError;
+use crate::InputError;
 use contact_damage::gmsh::{parse_msh_bytes, PhysicalMap};
 use contact_damage::mesh::{refine_times, BoundaryPart, Mesh};
 use contact_input::sides::GroupFile;
@@ -116,13 +116,13 @@ impl<const D: usize> Domain<D> {
     }
 }
 
-fn case_error(origin: &str, key: &str, message: impl Into<String>) -> VerifyError {
+fn case_error(origin: &str, key: &str, message: impl Into<String>) -> InputError {
     FileKind::Case.error(origin, key, message)
 }
 
 /// The bytes of the mesh file `file` of a case from `origin` (built in, or relative to the case
 /// file's folder) and the path that names it in messages.
-pub fn mesh_file(file: &str, origin: &str) -> Result<(Vec<u8>, String), VerifyError> {
+pub fn mesh_file(file: &str, origin: &str) -> Result<(Vec<u8>, String), InputError> {
     let (bytes, path) = if origin.starts_with("built-in:") {
         let bytes = BUILT_IN_MESHES
             .iter()
@@ -163,7 +163,7 @@ pub fn mesh_file(file: &str, origin: &str) -> Result<(Vec<u8>, String), VerifyEr
 pub fn read_mesh<const D: usize>(
     domain: &DomainFile,
     origin: &str,
-) -> Result<Domain<D>, VerifyError> {
+) -> Result<Domain<D>, InputError> {
     let Some(file) = &domain.mesh else {
         return Err(case_error(origin, "domain.mesh", "no mesh file given"));
     };
@@ -203,7 +203,7 @@ pub fn check_levels<const D: usize>(
     levels: &[usize],
     origin: &str,
     key: &str,
-) -> Result<(), VerifyError> {
+) -> Result<(), InputError> {
     for &level in levels {
         let cells = u32::try_from(D * level)
             .ok()
@@ -235,7 +235,7 @@ pub struct SamplePoints<const D: usize> {
 }
 
 /// The sample points of a mesh domain (see [`SamplePoints`]).
-pub fn sample_points<const D: usize>(mesh: &Mesh<D>) -> Result<SamplePoints<D>, VerifyError> {
+pub fn sample_points<const D: usize>(mesh: &Mesh<D>) -> Result<SamplePoints<D>, InputError> {
     let fine = refine_times(mesh, 1)?;
     let mut boundary = Vec::new();
     for f in 0..fine.num_facets() {

@@ -2,7 +2,7 @@
 //! (Han, Shillor & Sofonea 2001, error estimate of Theorem 5.2).
 //!
 //! Building blocks of the verification harness:
-//! - [`expr`], [`output`], [`VerifyError`]: the expression language, the atomic writers and the
+//! - [`expr`], [`output`], [`InputError`]: the expression language, the atomic writers and the
 //!   error type of the shared input layer (crate `contact-input`, re-exported here);
 //! - [`plot`]: log–log convergence plots written as SVG;
 //! - [`domain`]: the domain of a case, a box or a Gmsh mesh refined uniformly;
@@ -30,7 +30,6 @@ pub mod study;
 pub mod sweep;
 pub mod tables;
 
-/// The error type of the harness: that of the input layer (case-file errors are
-/// [`FileKind::Case`](contact_input::FileKind::Case)).
-pub use contact_input::InputError as VerifyError;
-pub use contact_input::{expr, output};
+/// The error type of the harness is that of the input layer ([`InputError`]; case-file errors
+/// are [`FileKind::Case`](contact_input::FileKind::Case)).
+pub use contact_input::{expr, output, InputError};

@@ -10,7 +10,7 @@ use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
 use crate::output::write_atomic;
-use crate::VerifyError;
+use crate::InputError;
 
 /// Width and height of the plot in SVG pixels.
 const PLOT_SIZE: (u32, u32) = (800, 600);
@@ -92,8 +92,8 @@ pub fn loglog_svg(
     y_label: &str,
     series: &[Series],
     references: &[ReferenceSlope],
-) -> Result<(), VerifyError> {
-    let plot_error = |message: String| VerifyError::Plot {
+) -> Result<(), InputError> {
+    let plot_error = |message: String| InputError::Plot {
         path: path.to_path_buf(),
         message,
     };
@@ -296,11 +296,11 @@ mod tests {
             points: vec![(0.0, 1.0), (1.0, 0.0), (f64::NAN, f64::NAN)],
         }];
         let error = loglog_svg(&path, "t", "h", "e", &series, &[]).unwrap_err();
-        assert!(matches!(error, VerifyError::Plot { .. }), "{error}");
+        assert!(matches!(error, InputError::Plot { .. }), "{error}");
         assert!(error.to_string().contains("empty.svg"), "{error}");
         assert!(!path.exists());
         let error = loglog_svg(&path, "t", "h", "e", &[], &[]).unwrap_err();
-        assert!(matches!(error, VerifyError::Plot { .. }), "{error}");
+        assert!(matches!(error, InputError::Plot { .. }), "{error}");
     }
 
     #[test]

@@ -16,7 +16,7 @@ use crate::output::{
 use crate::plot::{loglog_svg, ReferenceSlope, Series};
 use crate::study::{StudyResult, Verdict, RATE_TOLERANCE};
 use crate::tables::{self, StudyHead};
-use crate::VerifyError;
+use crate::InputError;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -165,7 +165,7 @@ pub fn write_reports(
     origin: &str,
     dim: usize,
     studies: &[StudyResult],
-) -> Result<Vec<PathBuf>, VerifyError> {
+) -> Result<Vec<PathBuf>, InputError> {
     let mut written = Vec::new();
     let rows: Vec<ErrorRow> = studies
         .iter()

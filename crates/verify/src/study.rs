@@ -8,7 +8,7 @@ use crate::case::{Case, LevelStudy, TimeStudy};
 use crate::errors::{ErrorComponents, ErrorTracker, Reference};
 use crate::manufactured::data::ExactPrograms;
 use crate::output::{finite, finite_or_null, finite_or_null_each};
-use crate::VerifyError;
+use crate::InputError;
 use contact_damage::quality::shape_regularity;
 use contact_damage::scheme::{RunSummary, Simulation, State};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -499,7 +499,7 @@ pub fn run_one<const D: usize>(
     cells: usize,
     steps: usize,
     reference: Option<Arc<Vec<State>>>,
-) -> Result<RunResult, VerifyError> {
+) -> Result<RunResult, InputError> {
     let started = Instant::now();
     let problem = case.problem(cells, degree, steps)?;
     run_problem(case, problem, cells, reference, started)
@@ -515,7 +515,7 @@ pub fn run_problem<const D: usize>(
     cells: usize,
     reference: Option<Arc<Vec<State>>>,
     started: Instant,
-) -> Result<RunResult, VerifyError> {
+) -> Result<RunResult, InputError> {
     let steps = problem.steps;
     let h = problem.mesh.max_cell_diameter();
     let mesh_cells = problem.mesh.num_cells();
@@ -554,7 +554,7 @@ pub fn reference_states<const D: usize>(
     degree: usize,
     cells: usize,
     steps: usize,
-) -> Result<Vec<State>, VerifyError> {
+) -> Result<Vec<State>, InputError> {
     let mut simulation = Simulation::new(case.problem(cells, degree, steps)?)?;
     let mut states = vec![simulation.state().clone()];
     simulation
@@ -575,10 +575,10 @@ fn explain_failure<const D: usize>(
     simulation: &mut Simulation<D>,
     cells: usize,
     error: contact_damage::Error,
-) -> VerifyError {
+) -> InputError {
     let step = simulation.time_step();
     match simulation.step_limit() {
-        Ok(limit) if step > limit.time_step => VerifyError::InvalidInput(format!(
+        Ok(limit) if step > limit.time_step => InputError::InvalidInput(format!(
             "case `{}`, level with {cells} cells and {} steps: the time step k = {step:.3e} exceeds the stability limit k_max = {:.3e} of the explicit terms of (5.1) (λ_max(H⁻¹B) = {:.3e}); lower `laws.contact.stiffness` or the elasticity against the viscosity, or take more steps (the solver stopped with: {error})",
             case.origin,
             simulation.steps(),
@@ -612,9 +612,9 @@ pub fn level_study<const D: usize>(
     degree: usize,
     kind: StudyKind,
     study: &LevelStudy,
-) -> Result<StudyResult, VerifyError> {
+) -> Result<StudyResult, InputError> {
     if study.levels().len() != study.steps.len() || study.levels().len() < 2 {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "{} study of order {degree}: the levels (`cells` or `refinements`) and `steps` need the same length ≥ 2",
             kind.name()
         )));
@@ -667,14 +667,14 @@ pub fn time_study<const D: usize>(
     case: &Case<D>,
     degree: usize,
     study: &TimeStudy,
-) -> Result<StudyResult, VerifyError> {
+) -> Result<StudyResult, InputError> {
     if study.steps.len() < 2
         || study
             .steps
             .iter()
             .any(|&s| s == 0 || study.reference_steps % s != 0)
     {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "k study of order {degree}: `reference_steps` = {} must be a multiple of every entry of `steps` {:?} (at least two levels)",
             study.reference_steps, study.steps
         )));

@@ -10,7 +10,7 @@
 use crate::output::write_atomic;
 use crate::study::RunResult;
 use crate::sweep::plan::{sha256_hex, PlannedRun};
-use crate::VerifyError;
+use crate::InputError;
 use contact_damage::scheme::State;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -45,7 +45,7 @@ pub fn result_path(results: &Path, run: &PlannedRun) -> PathBuf {
     results.join(format!("{}.result", run.digest))
 }
 
-fn store(results: &Path, run: &PlannedRun, payload: &[u8]) -> Result<(), VerifyError> {
+fn store(results: &Path, run: &PlannedRun, payload: &[u8]) -> Result<(), InputError> {
     let header = Header {
         format: RESULT_FORMAT.to_string(),
         digest: run.digest.clone(),
@@ -53,7 +53,7 @@ fn store(results: &Path, run: &PlannedRun, payload: &[u8]) -> Result<(), VerifyE
         bytes: payload.len(),
         sha256: sha256_hex(payload),
     };
-    let mut bytes = serde_json::to_vec(&header).map_err(|e| VerifyError::Serialize {
+    let mut bytes = serde_json::to_vec(&header).map_err(|e| InputError::Serialize {
         path: result_path(results, run),
         message: e.to_string(),
     })?;
@@ -102,8 +102,8 @@ fn load(results: &Path, run: &PlannedRun) -> Stored<Vec<u8>> {
 }
 
 /// Stores the result of a run (atomically).
-pub fn store_run(results: &Path, run: &PlannedRun, result: &RunResult) -> Result<(), VerifyError> {
-    let payload = serde_json::to_vec(result).map_err(|e| VerifyError::Serialize {
+pub fn store_run(results: &Path, run: &PlannedRun, result: &RunResult) -> Result<(), InputError> {
+    let payload = serde_json::to_vec(result).map_err(|e| InputError::Serialize {
         path: result_path(results, run),
         message: e.to_string(),
     })?;
@@ -131,7 +131,7 @@ fn push_vector(bytes: &mut Vec<u8>, values: &[f64]) {
 
 /// Stores the states of a reference run (binary: count, then per state step, time and the
 /// displacement, velocity and damage vectors with their lengths; all little-endian).
-pub fn store_states(results: &Path, run: &PlannedRun, states: &[State]) -> Result<(), VerifyError> {
+pub fn store_states(results: &Path, run: &PlannedRun, states: &[State]) -> Result<(), InputError> {
     let mut bytes = Vec::new();
     bytes.extend_from_slice(&(states.len() as u64).to_le_bytes());
     for state in states {

@@ -7,7 +7,7 @@ use crate::report::write_reports;
 use crate::study::{level_study_result, time_study_result, StudyKind, StudyResult, Verdict};
 use crate::sweep::cache::{load_run, result_path, Stored};
 use crate::sweep::plan::Manifest;
-use crate::VerifyError;
+use crate::InputError;
 use std::path::{Path, PathBuf};
 
 /// The studies of a manifest from its stored results.
@@ -30,7 +30,7 @@ impl Merged {
 
 /// Collects the results of the studies of `manifest` from `results`: a missing or invalid
 /// result is named by its run's id, never merged.
-pub fn merge(manifest: &Manifest, results: &Path) -> Result<Merged, VerifyError> {
+pub fn merge(manifest: &Manifest, results: &Path) -> Result<Merged, InputError> {
     let file = parse_case_file(&manifest.case_text, &manifest.origin)?;
     let mut merged = Merged {
         studies: Vec::new(),
@@ -40,7 +40,7 @@ pub fn merge(manifest: &Manifest, results: &Path) -> Result<Merged, VerifyError>
         let mut runs = Vec::new();
         for id in &study.runs {
             let run = manifest.run(id).ok_or_else(|| {
-                VerifyError::InvalidInput(format!("manifest: study run `{id}` is not listed"))
+                InputError::InvalidInput(format!("manifest: study run `{id}` is not listed"))
             })?;
             let path = result_path(results, run);
             let problem = match load_run(results, run) {
@@ -71,7 +71,7 @@ pub fn merge(manifest: &Manifest, results: &Path) -> Result<Merged, VerifyError>
             StudyKind::K => {
                 let reference_steps = study.reference_steps.unwrap_or(0);
                 if reference_steps == 0 {
-                    return Err(VerifyError::InvalidInput(
+                    return Err(InputError::InvalidInput(
                         "manifest: a k-study without `reference_steps`".to_string(),
                     ));
                 }
@@ -90,6 +90,6 @@ pub fn write_study_reports(
     out: &Path,
     manifest: &Manifest,
     studies: &[StudyResult],
-) -> Result<Vec<PathBuf>, VerifyError> {
+) -> Result<Vec<PathBuf>, InputError> {
     write_reports(out, &manifest.case, &manifest.origin, manifest.dim, studies)
 }

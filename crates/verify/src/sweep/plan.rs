@@ -4,7 +4,7 @@
 
 use crate::case::{parse_case_file, CaseFile, LevelStudy, TimeStudy};
 use crate::study::StudyKind;
-use crate::VerifyError;
+use crate::InputError;
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 use std::path::Path;
@@ -117,13 +117,13 @@ pub fn sha256_hex(bytes: &[u8]) -> String {
 /// The content of a case file that results depend on: its TOML with the `[studies]` table
 /// removed (the levels of a run are its own parameters), written canonically (sorted keys, no
 /// comments or layout), so that editing a study's levels or a comment invalidates no other run.
-pub fn case_content(text: &str, origin: &str) -> Result<String, VerifyError> {
+pub fn case_content(text: &str, origin: &str) -> Result<String, InputError> {
     let mut table: toml::Table = text.parse().map_err(|e: toml::de::Error| {
-        VerifyError::InvalidInput(format!("{origin}: not a TOML file: {e}"))
+        InputError::InvalidInput(format!("{origin}: not a TOML file: {e}"))
     })?;
     table.remove("studies");
     serde_json::to_string(&table)
-        .map_err(|e| VerifyError::InvalidInput(format!("{origin}: cannot canonicalize: {e}")))
+        .map_err(|e| InputError::InvalidInput(format!("{origin}: cannot canonicalize: {e}")))
 }
 
 /// The digest of a run: SHA-256 of the canonical case content ([`case_content`]), the
@@ -232,13 +232,9 @@ fn truncate<T: Clone>(values: &[T], levels: Option<usize>) -> Vec<T> {
     }
 }
 
-fn check_level_study(
-    kind: StudyKind,
-    degree: usize,
-    study: &LevelStudy,
-) -> Result<(), VerifyError> {
+fn check_level_study(kind: StudyKind, degree: usize, study: &LevelStudy) -> Result<(), InputError> {
     if study.levels().len() != study.steps.len() || study.levels().len() < 2 {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "{} study of order {degree}: `cells` (or `refinements`) and `steps` need the same length ≥ 2",
             kind.name()
         )));
@@ -246,14 +242,14 @@ fn check_level_study(
     Ok(())
 }
 
-fn check_time_study(degree: usize, study: &TimeStudy) -> Result<(), VerifyError> {
+fn check_time_study(degree: usize, study: &TimeStudy) -> Result<(), InputError> {
     if study.steps.len() < 2
         || study
             .steps
             .iter()
             .any(|&s| s == 0 || study.reference_steps % s != 0)
     {
-        return Err(VerifyError::InvalidInput(format!(
+        return Err(InputError::InvalidInput(format!(
             "k study of order {degree}: `reference_steps` = {} must be a multiple of every entry of `steps` {:?} (at least two levels)",
             study.reference_steps, study.steps
         )));
@@ -269,11 +265,11 @@ pub fn plan(
     degree: usize,
     studies: &[String],
     levels: Option<usize>,
-) -> Result<Manifest, VerifyError> {
+) -> Result<Manifest, InputError> {
     let file: CaseFile = parse_case_file(text, origin)?;
     let key = format!("order{degree}");
     let set = file.studies.get(&key).ok_or_else(|| {
-        VerifyError::InvalidInput(format!(
+        InputError::InvalidInput(format!(
             "case `{origin}` defines no studies for l = {degree} (no [studies.{key}])"
         ))
     })?;
@@ -353,7 +349,7 @@ pub fn plan(
                 });
             }
             other => {
-                return Err(VerifyError::InvalidInput(format!(
+                return Err(InputError::InvalidInput(format!(
                     "--studies: unknown study `{other}` (use h, k, diagonal, comma-separated)"
                 )))
             }
@@ -381,9 +377,9 @@ impl Manifest {
     /// Checks a manifest read from `path`: its format and code version, the case text, and
     /// that every run's digest and index are those its parameters give (a manifest edited by
     /// hand, or planned by another version, is refused).
-    pub fn check(&self, path: &Path) -> Result<(), VerifyError> {
+    pub fn check(&self, path: &Path) -> Result<(), InputError> {
         let refuse = |message: String| {
-            VerifyError::InvalidInput(format!("manifest `{}`: {message}", path.display()))
+            InputError::InvalidInput(format!("manifest `{}`: {message}", path.display()))
         };
         if self.format != MANIFEST_FORMAT {
             return Err(refuse(format!(
@@ -423,16 +419,16 @@ impl Manifest {
 }
 
 /// Writes a manifest (pretty JSON, atomically).
-pub fn write_manifest(path: &Path, manifest: &Manifest) -> Result<(), VerifyError> {
+pub fn write_manifest(path: &Path, manifest: &Manifest) -> Result<(), InputError> {
     crate::output::write_json_atomic(path, manifest)
 }
 
 /// Reads and checks a manifest ([`Manifest::check`]).
-pub fn read_manifest(path: &Path) -> Result<Manifest, VerifyError> {
+pub fn read_manifest(path: &Path) -> Result<Manifest, InputError> {
     let text = std::fs::read_to_string(path)
-        .map_err(|e| VerifyError::io("reading the manifest", path, e))?;
+        .map_err(|e| InputError::io("reading the manifest", path, e))?;
     let manifest: Manifest = serde_json::from_str(&text).map_err(|e| {
-        VerifyError::InvalidInput(format!(
+        InputError::InvalidInput(format!(
             "manifest `{}`: not a manifest of `verify plan`: {e}",
             path.display()
         ))

@@ -4,7 +4,7 @@ use crate::case::Case;
 use crate::study::{progress, reference_states, run_one};
 use crate::sweep::cache::{load_run, load_states, result_path, store_run, store_states, Stored};
 use crate::sweep::plan::{Manifest, PlannedRun, RunKind};
-use crate::VerifyError;
+use crate::InputError;
 use contact_damage::scheme::State;
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -61,7 +61,7 @@ fn reference<const D: usize>(
     results: &Path,
     known: &Mutex<HashMap<String, Arc<Vec<State>>>>,
     fresh: bool,
-) -> Result<Arc<Vec<State>>, VerifyError> {
+) -> Result<Arc<Vec<State>>, InputError> {
     // held while computing: the runs against one reference wait for it rather than repeat it
     let mut known = known
         .lock()
@@ -104,11 +104,11 @@ fn compute<const D: usize>(
     run: &PlannedRun,
     results: &Path,
     known: &Mutex<HashMap<String, Arc<Vec<State>>>>,
-) -> Result<(), VerifyError> {
+) -> Result<(), InputError> {
     let against = match (&run.kind, &run.reference) {
         (RunKind::AgainstReference, Some(id)) => {
             let planned = manifest.run(id).ok_or_else(|| {
-                VerifyError::InvalidInput(format!("run {}: no reference run `{id}`", run.id))
+                InputError::InvalidInput(format!("run {}: no reference run `{id}`", run.id))
             })?;
             let states = reference(case, manifest, planned, results, known, false)?;
             // the stored states are every `stride`-th step; this run needs every (R/N)-th
@@ -138,12 +138,12 @@ pub fn execute<const D: usize>(
     selection: &[usize],
     results: &Path,
     fresh: bool,
-) -> Result<Executed, VerifyError> {
+) -> Result<Executed, InputError> {
     let mut executed = Executed::default();
     let mut pending: Vec<&PlannedRun> = Vec::new();
     for &index in selection {
         let run = manifest.runs.get(index).ok_or_else(|| {
-            VerifyError::InvalidInput(format!(
+            InputError::InvalidInput(format!(
                 "--index {index}: the manifest has {} runs (0 ..= {})",
                 manifest.runs.len(),
                 manifest.runs.len().saturating_sub(1)
@@ -163,7 +163,7 @@ pub fn execute<const D: usize>(
         .into_iter()
         .partition(|run| run.kind == RunKind::Reference);
     for batch in [references, others] {
-        let outcomes: Vec<(String, Result<(), VerifyError>)> = batch
+        let outcomes: Vec<(String, Result<(), InputError>)> = batch
             .par_iter()
             .map(|run| {
                 let outcome = match run.kind {
@@ -186,7 +186,7 @@ pub fn execute<const D: usize>(
     if failed.is_empty() {
         Ok(executed)
     } else {
-        Err(VerifyError::InvalidInput(format!(
+        Err(InputError::InvalidInput(format!(
             "{} of {} runs failed:\n  {}",
             failed.len(),
             executed.computed,

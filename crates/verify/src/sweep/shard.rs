@@ -1,12 +1,12 @@
 //! The shares of a manifest for `verify run --shard I/N`: greedy LPT by estimated cost.
 
 use crate::sweep::plan::{Manifest, PlannedRun};
-use crate::VerifyError;
+use crate::InputError;
 
 /// Parses `--shard I/N` (0 ≤ I < N).
-pub fn parse_shard(text: &str) -> Result<(usize, usize), VerifyError> {
+pub fn parse_shard(text: &str) -> Result<(usize, usize), InputError> {
     let refuse = || {
-        VerifyError::InvalidInput(format!(
+        InputError::InvalidInput(format!(
             "--shard `{text}`: expected I/N with 0 ≤ I < N, e.g. 0/4"
         ))
     };
