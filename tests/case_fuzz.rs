@@ -31,10 +31,11 @@ fn build<const D: usize>(file: verify::case::CaseFile, first_cells: Option<usize
     let Ok(case) = Case::<D>::new(file, "fuzz.toml") else {
         return;
     };
-    let limit = 0.25 * contact_damage::memory::GIB;
+    let limit = 0.25 * contact_damage::algebra::memory::GIB;
     if let Some(cells) = first_cells {
-        let estimate = contact_damage::memory::estimate_box(&[cells; D], 1);
-        if contact_damage::memory::check(estimate, limit, "fuzz", "--memory-limit").is_ok() {
+        let estimate = contact_damage::algebra::memory::estimate_box(&[cells; D], 1);
+        if contact_damage::algebra::memory::check(estimate, limit, "fuzz", "--memory-limit").is_ok()
+        {
             let _ = case.problem(cells, 1, 2);
         }
     }

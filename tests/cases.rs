@@ -6,7 +6,7 @@
 //! (≈1e-7 relative); the contact, friction and damage-inclusion conditions are algebraic and
 //! hold to round-off.
 
-use contact_damage::mesh::{BoundaryPart::Contact, Mesh};
+use contact_damage::fem::mesh::{BoundaryPart::Contact, Mesh};
 use nalgebra::SVector;
 use verify::case::{parse_case_file, Case};
 use verify::cli::BUILT_IN_CASES;

@@ -126,7 +126,7 @@ fn verify_k_study_reports_newton_statistics_and_no_nan() {
 
     // summary.json: Newton iterations of (5.1) per step, and the slowest step's history
     let json: serde_json::Value = serde_json::from_str(&json_text).unwrap();
-    let tolerance = contact_damage::velocity::VelocitySettings::default().tolerance;
+    let tolerance = contact_damage::scheme::velocity::VelocitySettings::default().tolerance;
     let studies = json["studies"].as_array().unwrap();
     assert_eq!(studies.len(), 2);
     for study in studies {

@@ -440,7 +440,7 @@ fn the_stored_runs_give_the_errors_of_the_in_memory_studies() {
         );
         for (run, stored) in study.runs.iter().zip(json["runs"].as_array().unwrap()) {
             assert_eq!(stored["steps"], run.steps);
-            for (name, value) in verify::errors::ErrorComponents::NAMES
+            for (name, value) in verify::error_norms::ErrorComponents::NAMES
                 .iter()
                 .zip(run.errors.values())
             {

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use verify::case::{parse_case_file, Case};
 use verify::cli::BUILT_IN_CASES;
-use verify::errors::ErrorComponents;
+use verify::error_norms::ErrorComponents;
 use verify::study::{RunResult, StudyKind, StudyResult};
 
 /// Relative tolerance of the pinned errors. One-ulp perturbations of the law constants move

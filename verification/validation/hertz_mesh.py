@@ -10,7 +10,7 @@ Physical groups of curves, used by name in the problem file:
 and the physical surface `disc`. The mesh is graded towards the first contact point: size
 H_CONTACT within a distance 0.12 of the origin (the contact half-width is about 0.04-0.05),
 growing linearly to 0.08 at distance 0.6. Three meshes, h = 0.01, 0.005, 0.0025 at the
-contact, saved as MSH 4.1 binary (the format read by contact_damage::gmsh):
+contact, saved as MSH 4.1 binary (the format read by contact_damage::io::gmsh):
 hertz_h0.01.msh, hertz_h0.005.msh, hertz_h0.0025.msh.
 
 Regenerate (from the repository root; gmsh 4.15.2 from PyPI, `pip install gmsh==4.15.2`):

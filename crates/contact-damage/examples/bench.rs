@@ -37,19 +37,19 @@
 
 #[path = "common/report.rs"]
 mod report;
-use contact_damage::assembly::add_facet_integrals;
-use contact_damage::contact::{ContactNodes, ContactStatus};
-use contact_damage::damage::{assemble_damage_matrix, DamageOperator};
-use contact_damage::laws::{
+use contact_damage::algebra::linalg::{multiply, CholeskySolver};
+use contact_damage::algebra::ordering::{fill_reducing_node_order, NodeGraph};
+use contact_damage::fem::mesh::{BoundaryPart, Mesh};
+use contact_damage::fem::space::LagrangeSpace;
+use contact_damage::model::contact::{ContactNodes, ContactStatus};
+use contact_damage::model::laws::{
     DamageSourceFn, DamagedHooke, LinearViscosity, NormalComplianceCoulomb, Tensor, Viscosity,
 };
-use contact_damage::linalg::{multiply, CholeskySolver};
-use contact_damage::mesh::{BoundaryPart, Mesh};
-use contact_damage::obstacle::BoxQpSettings;
-use contact_damage::ordering::{fill_reducing_node_order, NodeGraph};
+use contact_damage::scheme::assembly::add_facet_integrals;
+use contact_damage::scheme::damage::{assemble_damage_matrix, DamageOperator};
+use contact_damage::scheme::velocity::{VelocityData, VelocityOperator, VelocitySettings};
 use contact_damage::scheme::{Data, Model, Problem, SchemeSettings, Simulation, StepOutcome};
-use contact_damage::space::LagrangeSpace;
-use contact_damage::velocity::{VelocityData, VelocityOperator, VelocitySettings};
+use contact_damage::solvers::box_qp::BoxQpSettings;
 use report::{cpu_model, fmt_s, load_average, utc_now, write_atomically};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -463,7 +463,7 @@ fn measure<const D: usize>(cells: usize) -> contact_damage::Result<BTreeMap<Stri
                 let u0 = initial_displacement(&space.node(node));
                 let normal = contact.normal(k);
                 let penetration: f64 = (0..D).map(|i| u0[i] * normal[i]).sum::<f64>() - GAP;
-                use contact_damage::laws::ContactLaw;
+                use contact_damage::model::laws::ContactLaw;
                 (
                     CONTACT.normal_pressure(penetration),
                     CONTACT.friction_bound(penetration),

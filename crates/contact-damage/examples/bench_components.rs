@@ -35,10 +35,12 @@
 
 #[path = "common/report.rs"]
 mod report;
-use contact_damage::friction::{CondensedFriction, FrictionSettings};
-use contact_damage::linalg::multiply;
-use contact_damage::mesh::{BoundaryPart, Mesh};
-use contact_damage::obstacle::{box_qp_kkt_residual, BoxQpSettings, BoxQpSolver, BoxQpStats};
+use contact_damage::algebra::linalg::multiply;
+use contact_damage::fem::mesh::{BoundaryPart, Mesh};
+use contact_damage::solvers::box_qp::{
+    box_qp_kkt_residual, BoxQpSettings, BoxQpSolver, BoxQpStats,
+};
+use contact_damage::solvers::friction::{CondensedFriction, FrictionSettings};
 use faer::sparse::{SparseColMat, Triplet};
 use faer::Mat;
 use report::{cpu_model, fmt_s, load_average, utc_now, write_atomically};

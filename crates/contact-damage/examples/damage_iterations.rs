@@ -20,7 +20,7 @@
 #[path = "common/moving_damage.rs"]
 mod moving_damage;
 
-use contact_damage::obstacle::BoxQpMethod;
+use contact_damage::solvers::box_qp::BoxQpMethod;
 use std::time::Instant;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {

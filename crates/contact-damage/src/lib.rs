@@ -8,15 +8,21 @@
 //! exactly as a Tresca-type variational inequality, and the damage step (5.2) solved exactly as
 //! a box-constrained quadratic program.
 //!
-//! Modules, one concept each: [`mesh`], [`quadrature`], [`element`], [`space`], [`assembly`],
-//! [`linalg`], [`laws`], [`contact`], [`dirichlet`], [`friction`], [`velocity`], [`obstacle`],
-//! [`damage`], [`refine`] (uniform refinement), [`quality`] (shape regularity), [`stability`] (the step limit of the explicit terms), [`gmsh`] (mesh files),
-//! [`vtk`] (ParaView output), [`atomic`] (atomic file writing),
-//! [`scheme`].
+//! The folders follow the paper:
+//! - [`model`]: Problem P of §2–3 — constitutive laws, load fields, the contact boundary Γ3,
+//!   Dirichlet data on Γ1;
+//! - [`fem`]: the finite elements of §5 — meshes, refinement, shape regularity, quadrature,
+//!   Lagrange elements, the spaces X^h;
+//! - [`algebra`]: sparse Cholesky (symbolic once, numeric many times), triangular solves,
+//!   orderings, algebraic multigrid, memory estimates;
+//! - [`solvers`]: the exact solvers of the friction problem of (5.1) and the box QP of (5.2);
+//! - [`scheme`]: the scheme P_V^hk (5.1)–(5.5) — the velocity step, the damage step, the
+//!   element kernels and load vectors, the step limit of the explicit terms, and [`Simulation`];
+//! - [`io`]: Gmsh meshes in, ParaView files out, the atomic writer.
 //!
 //! ```
-//! use contact_damage::laws::{DamagedHooke, LinearViscosity, NormalComplianceCoulomb, TruncatedFremond};
-//! use contact_damage::mesh::{BoundaryPart::*, Mesh};
+//! use contact_damage::model::laws::{DamagedHooke, LinearViscosity, NormalComplianceCoulomb, TruncatedFremond};
+//! use contact_damage::fem::mesh::{BoundaryPart::*, Mesh};
 //! use contact_damage::scheme::{Data, Model, Problem, SchemeSettings, Simulation};
 //! use std::sync::Arc;
 //!
@@ -55,44 +61,23 @@
 //! # Ok::<(), contact_damage::Error>(())
 //! ```
 
-pub mod assembly;
-pub mod atomic;
-mod coarse_obstacle;
-pub mod contact;
-pub mod damage;
-pub mod dirichlet;
-pub mod element;
+pub mod algebra;
 pub mod error;
-pub mod fields;
-pub mod friction;
-pub mod gmsh;
-pub mod laws;
-pub mod linalg;
-pub mod loads;
-pub mod memory;
-pub mod mesh;
-mod multigrid;
-pub mod obstacle;
-pub mod ordering;
-pub mod quadrature;
-pub mod quality;
-pub mod refine;
+pub mod fem;
+pub mod io;
+pub mod model;
 pub mod scheme;
-pub mod space;
-pub mod stability;
+pub mod solvers;
 #[cfg(test)]
 mod test_random;
-mod triangular;
-pub mod velocity;
-pub mod vtk;
 
 pub use error::{Error, Result};
-pub use mesh::{BoundaryPart, Mesh};
+pub use fem::mesh::{BoundaryPart, Mesh};
+pub use fem::space::LagrangeSpace;
 pub use scheme::{
     ContactTreatment, DamageEvolution, Data, Model, Problem, RunSummary, SchemeSettings,
     Simulation, State, StatusCounts, StepOutcome, StepReport,
 };
-pub use space::LagrangeSpace;
 
 /// The code blocks of the README run as doctests.
 #[cfg(doctest)]

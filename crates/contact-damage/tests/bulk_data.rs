@@ -1,13 +1,13 @@
-//! Bulk data evaluated ahead of the steps ([`contact_damage::loads::BulkData`]): a field that
+//! Bulk data evaluated ahead of the steps ([`contact_damage::scheme::loads::BulkData`]): a field that
 //! asks for several step times per evaluation gets them, and the run is bitwise the run that
 //! evaluates each step's data at that step, uninterrupted or resumed at any step.
 
 mod common;
 
-use contact_damage::fields::{BatchScalarField, BatchVectorField};
-use contact_damage::loads::{LoadQuadrature, BULK_DATA_BYTES};
+use contact_damage::fem::space::LagrangeSpace;
+use contact_damage::model::fields::{BatchScalarField, BatchVectorField};
+use contact_damage::scheme::loads::{LoadQuadrature, BULK_DATA_BYTES};
 use contact_damage::scheme::{Data, Simulation, State};
-use contact_damage::space::LagrangeSpace;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 

@@ -5,7 +5,7 @@
 //! multigrid. The counts for N up to 512 are in `docs/explanation/performance.md`
 //! (`cargo run --release -p contact-damage --example damage_iterations [-- --active-set]`).
 
-use contact_damage::obstacle::BoxQpMethod;
+use contact_damage::solvers::box_qp::BoxQpMethod;
 
 #[path = "../examples/common/moving_damage.rs"]
 mod moving_damage;

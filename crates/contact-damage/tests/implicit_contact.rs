@@ -9,7 +9,7 @@
 
 mod common;
 
-use contact_damage::laws::{DamageSourceFn, NormalComplianceCoulomb, Tensor};
+use contact_damage::model::laws::{DamageSourceFn, NormalComplianceCoulomb, Tensor};
 use contact_damage::scheme::{ContactTreatment, Simulation};
 use std::sync::Arc;
 

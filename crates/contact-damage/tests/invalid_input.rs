@@ -2,11 +2,11 @@
 
 mod common;
 
-use contact_damage::contact::ContactNodes;
-use contact_damage::laws::LinearViscosity;
+use contact_damage::fem::space::LagrangeSpace;
+use contact_damage::model::contact::ContactNodes;
+use contact_damage::model::laws::LinearViscosity;
+use contact_damage::scheme::velocity::{VelocityData, VelocityOperator, VelocitySettings};
 use contact_damage::scheme::Simulation;
-use contact_damage::space::LagrangeSpace;
-use contact_damage::velocity::{VelocityData, VelocityOperator, VelocitySettings};
 use std::sync::Arc;
 
 fn message_of<const D: usize>(problem: contact_damage::scheme::Problem<D>) -> String {

@@ -4,8 +4,8 @@
 
 mod common;
 
-use contact_damage::laws::{LinearViscosity, Tensor, Viscosity};
-use contact_damage::mesh::{BoundaryPart, Mesh};
+use contact_damage::fem::mesh::{BoundaryPart, Mesh};
+use contact_damage::model::laws::{LinearViscosity, Tensor, Viscosity};
 use contact_damage::scheme::Simulation;
 use nalgebra::{SMatrix, SVector};
 use std::sync::Arc;

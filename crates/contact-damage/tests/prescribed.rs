@@ -14,14 +14,14 @@ mod common;
 
 use common::{internal_force, regime_contact_data, velocity_kkt, Random, VelocityProblem, REGIMES};
 
-use contact_damage::contact::ContactNodes;
-use contact_damage::laws::{LinearViscosity, SaturatingViscosity, Viscosity};
-use contact_damage::mesh::{BoundaryPart, BoundaryPart::*, Mesh};
+use contact_damage::fem::mesh::{BoundaryPart, BoundaryPart::*, Mesh};
+use contact_damage::fem::space::LagrangeSpace;
+use contact_damage::model::contact::ContactNodes;
+use contact_damage::model::laws::{LinearViscosity, SaturatingViscosity, Viscosity};
+use contact_damage::scheme::velocity::{VelocityData, VelocityOperator, VelocitySettings};
 use contact_damage::scheme::{
     ContactTreatment, Data, PointScalarField, PrescribedDisplacement, Simulation,
 };
-use contact_damage::space::LagrangeSpace;
-use contact_damage::velocity::{VelocityData, VelocityOperator, VelocitySettings};
 use nalgebra::SVector;
 use proptest::prelude::*;
 use std::sync::Arc;
@@ -319,12 +319,12 @@ fn scheme_velocity_steps_take_the_prescribed_displacement_and_the_roller_slides(
 fn pressures(simulation: &Simulation<2>, displacement: &[f64], time: f64) -> Vec<f64> {
     let contact = simulation.contact();
     let gap = simulation.gap_at(time).unwrap();
-    let law = contact_damage::laws::NormalComplianceCoulomb {
+    let law = contact_damage::model::laws::NormalComplianceCoulomb {
         stiffness: 10.0,
         friction: 0.4,
         wear: 0.0,
     };
-    use contact_damage::laws::ContactLaw;
+    use contact_damage::model::laws::ContactLaw;
     (0..contact.len())
         .map(|k| {
             let node = contact.nodes[k];

@@ -17,16 +17,16 @@ use common::{
     VelocityProblem, REGIMES,
 };
 
-use contact_damage::contact::{ContactNodes, ContactStatus};
-use contact_damage::damage::DamageOperator;
-use contact_damage::laws::{LinearViscosity, SaturatingViscosity, Viscosity};
-use contact_damage::mesh::Mesh;
-use contact_damage::obstacle::BoxQpSettings;
-use contact_damage::quadrature::QuadratureRule;
-use contact_damage::space::LagrangeSpace;
-use contact_damage::velocity::{
+use contact_damage::fem::mesh::Mesh;
+use contact_damage::fem::quadrature::QuadratureRule;
+use contact_damage::fem::space::LagrangeSpace;
+use contact_damage::model::contact::{ContactNodes, ContactStatus};
+use contact_damage::model::laws::{LinearViscosity, SaturatingViscosity, Viscosity};
+use contact_damage::scheme::damage::DamageOperator;
+use contact_damage::scheme::velocity::{
     VelocityData, VelocityOperator, VelocitySettings, VelocitySolution,
 };
+use contact_damage::solvers::box_qp::BoxQpSettings;
 use nalgebra::{DMatrix, DVector, SVector};
 use proptest::prelude::*;
 use std::sync::Arc;

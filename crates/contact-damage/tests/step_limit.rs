@@ -1,13 +1,13 @@
-//! The step limit of the explicit terms of (5.1) (`contact_damage::stability`): exact where it is
+//! The step limit of the explicit terms of (5.1) (`contact_damage::scheme::stability`): exact where it is
 //! known in closed form, and it separates the steps at which the explicit scheme settles from
 //! those at which it does not.
 
 mod common;
 
-use contact_damage::laws::{
+use contact_damage::fem::mesh::Mesh;
+use contact_damage::model::laws::{
     DamageSourceFn, DamagedHooke, LinearViscosity, NormalComplianceCoulomb, Tensor,
 };
-use contact_damage::mesh::Mesh;
 use contact_damage::scheme::{ContactTreatment, Problem, Simulation};
 use std::sync::Arc;
 

@@ -4,8 +4,8 @@
 
 mod common;
 
-use contact_damage::laws::Tensor;
-use contact_damage::mesh::{BoundaryPart, Mesh};
+use contact_damage::fem::mesh::{BoundaryPart, Mesh};
+use contact_damage::model::laws::Tensor;
 use contact_damage::scheme::Simulation;
 use nalgebra::SVector;
 use std::sync::Arc;

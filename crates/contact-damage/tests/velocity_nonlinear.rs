@@ -14,11 +14,11 @@ mod common;
 
 use common::{internal_force, regime_contact_data, Random, Regime, REGIMES};
 
-use contact_damage::contact::{ContactNodes, ContactStatus};
-use contact_damage::laws::{LinearViscosity, SaturatingViscosity};
-use contact_damage::mesh::{BoundaryPart, Mesh};
-use contact_damage::space::LagrangeSpace;
-use contact_damage::velocity::{VelocityData, VelocityOperator, VelocitySettings};
+use contact_damage::fem::mesh::{BoundaryPart, Mesh};
+use contact_damage::fem::space::LagrangeSpace;
+use contact_damage::model::contact::{ContactNodes, ContactStatus};
+use contact_damage::model::laws::{LinearViscosity, SaturatingViscosity};
+use contact_damage::scheme::velocity::{VelocityData, VelocityOperator, VelocitySettings};
 use proptest::prelude::*;
 use std::sync::Arc;
 

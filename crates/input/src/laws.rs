@@ -7,7 +7,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
-use contact_damage::laws::{
+use contact_damage::model::laws::{
     points_per_cell, DamageModuli, DamageSource, DamageSourceFn, DamagedHooke, Elasticity,
     InvariantJet, InvariantPotential, LinearViscosity, ModuliElasticity, NormalComplianceCoulomb,
     PotentialViscosity, SaturatingViscosity, Tensor, TruncatedFremond, Viscosity,
@@ -17,8 +17,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::error::{FileKind, InputError};
 use crate::expr::compiled::with_registers;
+use crate::expr::compiled::Program;
+use crate::expr::derivative::Tape;
 use crate::expr::split::BATCH;
-use crate::expr::{Expr, Program, Tape};
+use crate::expr::Expr;
 use crate::file::{parse_expr, positive};
 
 /// The variables of a damage-source expression.
@@ -462,7 +464,7 @@ impl<const D: usize> DamageSource<D> for ExpressionDamageSource {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use contact_damage::laws::Tensor;
+    use contact_damage::model::laws::Tensor;
     use proptest::prelude::*;
 
     fn potential(source: &str) -> (Expr, ExpressionPotential) {

@@ -4,7 +4,7 @@
 //! contents — never truncated, even if the harness is killed mid-write: the bytes go to a
 //! temporary file in the same directory, which is flushed to disk (`fsync`) and then renamed
 //! over the target (an atomic replacement on POSIX file systems). The writer is the solver
-//! crate's [`contact_damage::atomic`], the one of the VTU/PVD files too.
+//! crate's [`contact_damage::io::atomic`], the one of the VTU/PVD files too.
 //!
 //! A number without a value (e.g. the velocity error of a k-study, whose reference is discrete;
 //! a rate between two levels where one error is zero) is carried as a non-finite `f64` and never
@@ -53,7 +53,7 @@ pub fn format_or_dash(value: f64, format: impl Fn(f64) -> String) -> String {
     finite(value).map_or_else(|| MISSING.to_string(), format)
 }
 
-/// Write `bytes` to `path` atomically ([`contact_damage::atomic::write_atomic`]: a temporary
+/// Write `bytes` to `path` atomically ([`contact_damage::io::atomic::write_atomic`]: a temporary
 /// file in the same directory, synced, renamed over `path`). Missing parent directories are
 /// created; the error names the path and the failed action.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), InputError> {
@@ -61,7 +61,7 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), InputError> {
         std::fs::create_dir_all(directory)
             .map_err(|source| InputError::io("creating directory", directory, source))?;
     }
-    contact_damage::atomic::write_atomic(path, |out| out.write_all(bytes)).map_err(|error| {
+    contact_damage::io::atomic::write_atomic(path, |out| out.write_all(bytes)).map_err(|error| {
         InputError::Io {
             action: error.action,
             path: error.path,

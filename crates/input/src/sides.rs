@@ -4,8 +4,8 @@
 
 use std::collections::BTreeMap;
 
-use contact_damage::gmsh::GroupRef;
-use contact_damage::mesh::BoundaryPart;
+use contact_damage::fem::mesh::BoundaryPart;
+use contact_damage::io::gmsh::GroupRef;
 use serde::Deserialize;
 
 /// A physical group of a Gmsh mesh, by name (`"contact"`) or by tag (`7`), as the lists of

@@ -38,12 +38,12 @@
 #[allow(dead_code)] // the number format and writer of that file serve the other benches
 mod report;
 
-use contact_damage::atomic::write_atomic;
-use contact_damage::contact::ContactStatus;
-use contact_damage::damage::assemble_damage_matrix;
-use contact_damage::linalg::{CholeskySolver, FactorKind};
-use contact_damage::obstacle::BoxQpMethod;
+use contact_damage::algebra::linalg::{CholeskySolver, FactorKind};
+use contact_damage::io::atomic::write_atomic;
+use contact_damage::model::contact::ContactStatus;
+use contact_damage::scheme::damage::assemble_damage_matrix;
 use contact_damage::scheme::Simulation;
+use contact_damage::solvers::box_qp::BoxQpMethod;
 use simulate::history::{DomainQuadrature, RunningSums};
 use simulate::pictures::ContactLine;
 use simulate::problem::{parse_problem_file, ProblemSetup};

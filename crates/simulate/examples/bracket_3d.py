@@ -4,7 +4,7 @@ The bracket Ω = (0, 2) × (0, 1) × (0, 0.75) with two bolt holes through it al
 of radius 0.12 about the vertical lines through (1.2, 0.25) and (1.2, 0.75), meshed with
 linear tetrahedra of size about 0.2 (0.09 on the holes; 3940 tetrahedra, 1020 nodes) and
 saved as BINARY MSH 4.1 (`Mesh.Binary = 1`), one of the two encodings read by
-contact_damage::gmsh. Physical groups of surfaces (dimension 2), used by name in the problem
+contact_damage::io::gmsh. Physical groups of surfaces (dimension 2), used by name in the problem
 file:
 
     clamped  x = 0                                    (Γ1)

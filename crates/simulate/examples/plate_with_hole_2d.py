@@ -3,7 +3,7 @@
 The plate Ω = (0, 2) × (0, 1) minus the disc of radius 0.2 centred at (1.0, 0.5), meshed with
 linear triangles of size about 0.05 (0.025 on the hole, so that the circle and the stress
 concentration around it are resolved) and saved as MSH 4.1 ASCII, the format read by
-contact_damage::gmsh. Physical groups of curves (dimension 1), used by name in the problem file:
+contact_damage::io::gmsh. Physical groups of curves (dimension 1), used by name in the problem file:
 
     clamped  x = 0         (Γ1)
     bottom   y = 0         (Γ3, contact with the foundation)

@@ -12,7 +12,7 @@
 //!   `contact_history.svg`;
 //! - the temporaries of the atomic writers of these files, left behind by `kill -9` or a
 //!   second Ctrl-C ([`is_stale_temporary`]): `.<name>.tmp.<pid>.<n>` (the one writer,
-//!   `contact_damage::atomic`) and `.<name>.<pid>.<n>.tmp` (VTU/PVD files of earlier versions),
+//!   `contact_damage::io::atomic`) and `.<name>.<pid>.<n>.tmp` (VTU/PVD files of earlier versions),
 //!   `<name>` one of the names above and `<pid>`, `<n>` decimal numbers.
 //!
 //! What each mode does in the folder:
@@ -30,9 +30,11 @@
 
 use crate::history::HISTORY_FILE;
 use crate::pictures::{CONTACT_HISTORY_FILE, CONTACT_HISTORY_PICTURE};
-use crate::run::STATE_FILE;
 use contact_input::InputError;
 use std::path::{Path, PathBuf};
+
+/// Name of the restart file.
+pub const STATE_FILE: &str = "state.json";
 
 /// The fixed names of the files of a run.
 pub const FIXED_NAMES: [&str; 6] = [
@@ -80,7 +82,7 @@ pub fn is_stale_temporary(name: &str) -> bool {
             }
         }
     }
-    // `.<name>.tmp.<pid>.<n>` (contact_damage::atomic::write_atomic)
+    // `.<name>.tmp.<pid>.<n>` (contact_damage::io::atomic::write_atomic)
     let mut parts = rest.rsplitn(3, '.');
     if let (Some(n), Some(pid), Some(target)) = (parts.next(), parts.next(), parts.next()) {
         if let Some(target) = target.strip_suffix(".tmp") {

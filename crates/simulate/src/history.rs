@@ -29,9 +29,9 @@
 //! every contact node) are part of the saved state, so that a resumed run continues them.
 
 use crate::problem::ProblemSetup;
-use contact_damage::contact::{ContactNodes, ContactStatus};
-use contact_damage::quadrature::QuadratureRule;
-use contact_damage::space::{strain, LagrangeSpace, Tabulation};
+use contact_damage::fem::quadrature::QuadratureRule;
+use contact_damage::fem::space::{strain, LagrangeSpace, Tabulation};
+use contact_damage::model::contact::{ContactNodes, ContactStatus};
 use contact_input::output::write_atomic;
 use contact_input::InputError;
 use nalgebra::{SMatrix, SVector};
@@ -262,7 +262,7 @@ pub const CYCLE_WINDOW_STEPS: usize = 12;
 
 /// Watches the total normal contact force for a cycle of period two — the signature of a step
 /// above the stability limit of the explicit normal compliance where p_ν switches off on
-/// separation (see `contact_damage::stability`): over the last [`CYCLE_WINDOW_STEPS`] steps every
+/// separation (see `contact_damage::scheme::stability`): over the last [`CYCLE_WINDOW_STEPS`] steps every
 /// change reverses the previous one, the changes are not small (above 1e-8 of the force) and
 /// they do not decay. A damped oscillation, a load that varies smoothly or a force at rest is
 /// no cycle.
@@ -537,8 +537,8 @@ pub fn truncate_history(path: &Path, step: usize, header: &str) -> Result<(), In
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use contact_damage::mesh::{BoundaryPart::*, Mesh};
-    use contact_damage::quadrature::QuadratureRule;
+    use contact_damage::fem::mesh::{BoundaryPart::*, Mesh};
+    use contact_damage::fem::quadrature::QuadratureRule;
     use std::sync::Arc;
 
     /// P_l on (0, 1) × (0, 2), 3 × 4 cells, clamped at x = 0, contact at y = 0.

@@ -34,7 +34,7 @@ pub fn run_file(path: &Path, options: &run::RunOptions) -> Result<run::RunOutcom
         // before the mesh is built: a box of 10⁹ cells must not abort in an allocation
         run::check_memory(
             &path.display().to_string(),
-            contact_damage::memory::estimate_box(&box_file.cells, file.degree),
+            contact_damage::algebra::memory::estimate_box(&box_file.cells, file.degree),
             options,
         )?;
     }

@@ -123,7 +123,7 @@ fn main() -> ExitCode {
         interrupt: Some(interrupt),
         memory_limit: cli
             .memory_limit
-            .map(|gib| gib * contact_damage::memory::GIB),
+            .map(|gib| gib * contact_damage::algebra::memory::GIB),
     };
     match simulate::run_file(&cli.problem, &options) {
         Ok(outcome) if outcome.interrupted => {

@@ -14,9 +14,9 @@
 //! on the line of the face nearest its middle (in the other in-plane axis) are recorded — on a
 //! box mesh that is a grid line, on an unstructured mesh the nodes that happen to lie on it.
 
-use contact_damage::contact::{ContactNodes, ContactStatus};
-use contact_damage::mesh::BoundaryPart;
-use contact_damage::space::LagrangeSpace;
+use contact_damage::fem::mesh::BoundaryPart;
+use contact_damage::fem::space::LagrangeSpace;
+use contact_damage::model::contact::{ContactNodes, ContactStatus};
 use contact_input::output::write_atomic;
 use contact_input::InputError;
 use plotters::prelude::*;

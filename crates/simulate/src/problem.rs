@@ -67,15 +67,15 @@
 //! Every error names the file, the key and the problem ([`InputError::File`] of kind [`FileKind::Problem`]).
 
 use crate::watch::LoadWatch;
-use contact_damage::fields::{BatchBoundaryVectorField, BatchVectorField};
-use contact_damage::gmsh::{read_msh, GroupRef, PhysicalMap};
-use contact_damage::linalg::FactorKind;
-use contact_damage::mesh::{BoundaryPart, Mesh};
-use contact_damage::obstacle::BoxQpMethod;
+use contact_damage::algebra::linalg::FactorKind;
+use contact_damage::fem::mesh::{BoundaryPart, Mesh};
+use contact_damage::io::gmsh::{read_msh, GroupRef, PhysicalMap};
+use contact_damage::io::vtk::VtuEncoding;
+use contact_damage::model::fields::{BatchBoundaryVectorField, BatchVectorField};
 use contact_damage::scheme::{
     Data, Model, PointScalarField, PrescribedDisplacement, Problem, SchemeSettings,
 };
-use contact_damage::vtk::VtuEncoding;
+use contact_damage::solvers::box_qp::BoxQpMethod;
 use contact_input::expr::compiled::with_registers;
 use contact_input::expr::split::BATCH;
 use contact_input::expr::{Expr, Program};
@@ -202,7 +202,7 @@ pub struct GmshFile {
     #[serde(default)]
     pub contact: Vec<GroupFile>,
     /// Uniform refinements applied to the mesh after reading it (each triangle into 4, each
-    /// tetrahedron into 8; [`contact_damage::mesh::refine_uniform`]); the groups are kept.
+    /// tetrahedron into 8; [`contact_damage::fem::mesh::refine_uniform`]); the groups are kept.
     #[serde(default)]
     pub refinements: usize,
 }
@@ -270,7 +270,7 @@ pub struct SolverFile {
     /// Largest number of iterations of the damage step (default 100).
     pub damage_max_iterations: Option<usize>,
     /// Algorithm of the damage step: `"multigrid"` (default) or `"active-set"`
-    /// ([`contact_damage::obstacle::BoxQpMethod`]).
+    /// ([`contact_damage::solvers::box_qp::BoxQpMethod`]).
     pub damage_method: Option<String>,
 }
 
@@ -740,7 +740,7 @@ impl<const D: usize> ProblemSetup<D> {
         settings.damage_evolution = file.scheme.damage_evolution();
         if D == 3 {
             // the Cholesky factor of M/k + κK with `damage_method = "active-set"`: in 3D the
-            // supernodal one (factorization 25× faster at 32³, see `contact_damage::obstacle`)
+            // supernodal one (factorization 25× faster at 32³, see `contact_damage::solvers::box_qp`)
             settings.damage.factorization = FactorKind::Supernodal;
         }
         let canonical = |value: Result<String, serde_json::Error>| {
@@ -1101,26 +1101,26 @@ impl<const D: usize> ProblemSetup<D> {
                         ),
                     ));
                 }
-                let estimate = contact_damage::memory::estimate(
+                let estimate = contact_damage::algebra::memory::estimate(
                     D,
                     file.degree,
                     mesh.num_vertices() as f64 * 2f64.powi((D * gmsh.refinements) as i32),
                 );
-                contact_damage::memory::check(
+                contact_damage::algebra::memory::check(
                     estimate,
-                    contact_damage::memory::default_limit(),
+                    contact_damage::algebra::memory::default_limit(),
                     &format!("the problem of {origin} refined {} times", gmsh.refinements),
                     "--memory-limit",
                 )
                 .map_err(|e| problem_error(origin, "mesh.gmsh.refinements", e.to_string()))?;
-                let refined = contact_damage::mesh::refine_times(&mesh, gmsh.refinements)
+                let refined = contact_damage::fem::mesh::refine_times(&mesh, gmsh.refinements)
                     .map_err(|e| problem_error(origin, "mesh.gmsh.refinements", e.to_string()))?;
                 let facets = facets
                     .iter()
                     .map(|part| {
                         let mut part = part.clone();
                         for _ in 0..gmsh.refinements {
-                            part = contact_damage::mesh::refined_facets::<D>(&part);
+                            part = contact_damage::fem::mesh::refined_facets::<D>(&part);
                         }
                         part
                     })

@@ -9,7 +9,7 @@ use crate::history::{
 };
 use crate::problem::ProblemSetup;
 use crate::zone::{boundary_penetration, contact_force, contact_zone, ContactZone};
-use contact_damage::contact::ContactNodes;
+use contact_damage::model::contact::ContactNodes;
 use contact_damage::scheme::{ContactTreatment, Simulation, StepOutcome};
 
 /// The history row of a step and the per-node tangential speeds it was computed from (the

@@ -2,9 +2,9 @@
 //! problem and holds admissible values before the time loop continues from it.
 
 use crate::folder;
+use crate::folder::STATE_FILE;
 use crate::history::RunningSums;
 use crate::problem::ProblemSetup;
-use crate::run::STATE_FILE;
 use contact_damage::scheme::{Simulation, State};
 use contact_input::InputError;
 use serde::{Deserialize, Serialize};

@@ -39,9 +39,9 @@ use crate::resume::resume;
 pub use crate::resume::{read_saved_state, SavedState};
 pub use crate::snapshot::{cell_stress, contact_file, solution_file};
 use crate::snapshot::{save_step, SavedStep};
+use contact_damage::io::vtk::VtuGrid;
+use contact_damage::scheme::stability::StepLimit;
 use contact_damage::scheme::{DamageEvolution, Simulation, StepOutcome};
-use contact_damage::stability::StepLimit;
-use contact_damage::vtk::VtuGrid;
 use contact_input::output::write_atomic;
 use contact_input::InputError;
 use std::fs::OpenOptions;
@@ -50,9 +50,6 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
-
-/// Name of the restart file.
-pub const STATE_FILE: &str = "state.json";
 
 /// Command-line options of a run.
 #[derive(Debug, Clone, Default)]
@@ -71,7 +68,7 @@ pub struct RunOptions {
     /// progress: that step is saved like a saved step, so `--resume` continues from it.
     pub interrupt: Option<Arc<AtomicBool>>,
     /// Largest estimated memory a run may need, in bytes (`--memory-limit`; default: the
-    /// physical memory, see [`contact_damage::memory`]).
+    /// physical memory, see [`contact_damage::algebra::memory`]).
     pub memory_limit: Option<f64>,
 }
 
@@ -79,17 +76,17 @@ impl RunOptions {
     /// The memory limit in bytes.
     pub fn memory_limit(&self) -> f64 {
         self.memory_limit
-            .unwrap_or_else(contact_damage::memory::default_limit)
+            .unwrap_or_else(contact_damage::algebra::memory::default_limit)
     }
 }
 
 /// Refuses a problem whose estimated memory exceeds the limit, before the solver allocates.
 pub fn check_memory(
     origin: &str,
-    estimate: contact_damage::memory::MemoryEstimate,
+    estimate: contact_damage::algebra::memory::MemoryEstimate,
     options: &RunOptions,
 ) -> Result<(), InputError> {
-    contact_damage::memory::check(
+    contact_damage::algebra::memory::check(
         estimate,
         options.memory_limit(),
         &format!("the problem of {origin}"),
@@ -139,7 +136,7 @@ fn records_contact_history(n: usize, every: usize, steps: usize) -> bool {
 }
 
 /// Refuses a time step above the stability limit of the explicit terms of (5.1)
-/// ([`contact_damage::stability`]): such a run would not fail, it would produce a displacement
+/// ([`contact_damage::scheme::stability`]): such a run would not fail, it would produce a displacement
 /// that grows without bound or a contact force that cycles, with every step exact.
 fn check_step_limit<const D: usize>(
     setup: &ProblemSetup<D>,
@@ -196,7 +193,7 @@ pub fn run<const D: usize>(
     }
     check_memory(
         &setup.origin,
-        contact_damage::memory::estimate(
+        contact_damage::algebra::memory::estimate(
             D,
             setup.problem.degree,
             setup.problem.mesh.num_vertices() as f64,

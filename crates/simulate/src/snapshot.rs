@@ -1,19 +1,19 @@
 //! A saved step: the VTU files of Ω and Γ3, the PVD time series and `state.json` (see
 //! [`crate::run`] for the files), and the fields they hold.
 
+use crate::folder::STATE_FILE;
 use crate::history::RunningSums;
 use crate::problem::ProblemSetup;
 use crate::resume::SavedState;
-use crate::run::STATE_FILE;
-use contact_damage::contact::{ContactNodes, ContactStatus};
-use contact_damage::laws::Tensor;
-use contact_damage::mesh::BoundaryPart;
-use contact_damage::scheme::State;
-use contact_damage::space::{strain, LagrangeSpace, Tabulation};
-use contact_damage::velocity::VelocitySolution;
-use contact_damage::vtk::{
+use contact_damage::fem::mesh::BoundaryPart;
+use contact_damage::fem::space::{strain, LagrangeSpace, Tabulation};
+use contact_damage::io::vtk::{
     write_boundary_vtu, write_pvd, write_vtu_on_grid, CellData, PointData, VtuGrid,
 };
+use contact_damage::model::contact::{ContactNodes, ContactStatus};
+use contact_damage::model::laws::Tensor;
+use contact_damage::scheme::velocity::VelocitySolution;
+use contact_damage::scheme::State;
 use contact_input::output::write_json_compact_atomic;
 use contact_input::InputError;
 use std::path::Path;

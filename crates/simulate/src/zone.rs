@@ -17,9 +17,9 @@
 //! foundation and the friction traction −p_τ λ_a opposes the slip (the multipliers λ_a of
 //! (5.1) in the tangent frame R_a of the node).
 
-use contact_damage::contact::ContactNodes;
-use contact_damage::mesh::BoundaryPart;
-use contact_damage::space::LagrangeSpace;
+use contact_damage::fem::mesh::BoundaryPart;
+use contact_damage::fem::space::LagrangeSpace;
+use contact_damage::model::contact::ContactNodes;
 use nalgebra::SVector;
 
 /// Sub-facets (as facet-local node indices) on which the penetration is interpolated linearly.
@@ -220,7 +220,7 @@ pub fn stick_extent(nodes: impl IntoIterator<Item = (f64, usize, f64)>) -> Optio
 mod tests {
     use super::*;
     use crate::history::tests::unit_square_space;
-    use contact_damage::mesh::{BoundaryPart::*, Mesh};
+    use contact_damage::fem::mesh::{BoundaryPart::*, Mesh};
     use std::sync::Arc;
 
     #[test]

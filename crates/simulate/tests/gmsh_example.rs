@@ -6,7 +6,7 @@
 mod common;
 
 use common::{checked_run, expected_contact_nodes, facets_of, history_value, scratch};
-use contact_damage::mesh::{BoundaryPart, Mesh};
+use contact_damage::fem::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::Simulation;
 use simulate::problem::ProblemSetup;
 use simulate::run::read_saved_state;

@@ -7,7 +7,7 @@
 mod common;
 
 use common::{checked_run, expected_contact_nodes, facets_of, history_value, scratch};
-use contact_damage::mesh::{BoundaryPart, Mesh};
+use contact_damage::fem::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::Simulation;
 use simulate::history::HISTORY_FILE;
 use simulate::pictures::{ContactLine, CONTACT_HISTORY_FILE};

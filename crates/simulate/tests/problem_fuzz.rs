@@ -20,11 +20,11 @@ fn set_up(text: &str) {
         return;
     };
     let options = RunOptions {
-        memory_limit: Some(0.25 * contact_damage::memory::GIB),
+        memory_limit: Some(0.25 * contact_damage::algebra::memory::GIB),
         ..RunOptions::default()
     };
     if let Some(box_file) = &file.mesh.box_mesh {
-        let estimate = contact_damage::memory::estimate_box(&box_file.cells, file.degree);
+        let estimate = contact_damage::algebra::memory::estimate_box(&box_file.cells, file.degree);
         if check_memory("fuzz.toml", estimate, &options).is_err() {
             return;
         }

@@ -928,7 +928,7 @@ fn solver_settings_are_read_from_the_problem_file() {
     assert_eq!(settings.damage.max_iterations, 40);
     assert_eq!(
         settings.damage.method,
-        contact_damage::obstacle::BoxQpMethod::ActiveSet
+        contact_damage::solvers::box_qp::BoxQpMethod::ActiveSet
     );
     // missing entries keep the defaults
     let file = simulate::problem::parse_problem_file(EXAMPLE_2D, "example.toml").unwrap();

@@ -17,7 +17,7 @@
 //! the two solves as the median over the repeats with their range. A benchmark, not a test:
 //! nothing is asserted.
 
-use contact_damage::fields::{
+use contact_damage::model::fields::{
     BatchBoundaryScalarField, BatchBoundaryVectorField, BatchScalarField, BatchVectorField,
 };
 use contact_damage::scheme::{Data, Simulation};
@@ -26,7 +26,7 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 use verify::case::{parse_case_file, Case};
 use verify::cli::BUILT_IN_CASES;
-use verify::errors::{ErrorTracker, Reference};
+use verify::error_norms::{ErrorTracker, Reference};
 use verify::manufactured::data::ExactPrograms;
 use verify::output::{write_atomic, write_csv_atomic, write_json_atomic};
 

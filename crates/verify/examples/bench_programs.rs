@@ -14,7 +14,7 @@
 //! evaluation that fills the cache of time-independent values. A benchmark: nothing is
 //! asserted; prints a markdown table.
 
-use contact_damage::fields::{BatchScalarField, BatchVectorField};
+use contact_damage::model::fields::{BatchScalarField, BatchVectorField};
 use std::sync::Arc;
 use std::time::Instant;
 use verify::case::{parse_case_file, Case};

@@ -11,9 +11,9 @@
 //! steps in kΣ‖∇·‖², and the gradient error ‖∇(β_ref(t_n) − β_n)‖ at n = 1, 2, 3, N/2, N.
 //! An initial layer shows as a first-step error that does not decrease with k.
 
-use contact_damage::quadrature::QuadratureRule;
+use contact_damage::fem::quadrature::QuadratureRule;
+use contact_damage::fem::space::LagrangeSpace;
 use contact_damage::scheme::{Simulation, State};
-use contact_damage::space::LagrangeSpace;
 use std::process::ExitCode;
 use verify::case::{read_case_file, Case};
 use verify::InputError;

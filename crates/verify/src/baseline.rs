@@ -3,7 +3,7 @@
 //! reads the errors of a baseline and lists the values that moved between two of them; `verify
 //! baseline` ([`crate::cli`]) regenerates the baseline and prints that list.
 
-use crate::errors::ErrorComponents;
+use crate::error_norms::ErrorComponents;
 use crate::InputError;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

@@ -2,13 +2,13 @@
 //!
 //! The levels of an h- or diagonal study run in parallel, so a study may hold all of its levels
 //! at once; a k-study holds its levels and the reference run on one mesh. The estimate of a
-//! study is the sum of the estimates of its runs ([`contact_damage::memory`]), and the largest
+//! study is the sum of the estimates of its runs ([`contact_damage::algebra::memory`]), and the largest
 //! study selected must fit under the limit (`--memory-limit`, default the physical memory).
 
 use crate::case::Case;
 use crate::domain::Domain;
 use crate::InputError;
-use contact_damage::memory::{check, estimate, estimate_box, MemoryEstimate};
+use contact_damage::algebra::memory::{check, estimate, estimate_box, MemoryEstimate};
 
 /// Refuses the studies `names` of order `degree` of `case` (each cut to its first `levels`
 /// levels) if the largest needs more than `limit` bytes.

@@ -11,7 +11,7 @@ use crate::manufactured::data::{
 };
 use crate::manufactured::{value, ExactSolution, Laws};
 use crate::InputError;
-use contact_damage::mesh::{BoundaryPart, Mesh};
+use contact_damage::fem::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::{
     Data, PointScalarField, PrescribedDisplacement, Problem, SchemeSettings,
 };
@@ -556,7 +556,7 @@ impl<const D: usize> Case<D> {
                 (segments, points)
             }
             Domain::Mesh { mesh, .. } => {
-                let fine = contact_damage::mesh::refine_times(mesh, 1)?;
+                let fine = contact_damage::fem::mesh::refine_times(mesh, 1)?;
                 let mut segments = Vec::new();
                 for c in 0..fine.num_cells() {
                     let cell = fine.cell(c);
@@ -830,7 +830,7 @@ impl<const D: usize> Case<D> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use contact_damage::laws::{
+    use contact_damage::model::laws::{
         LinearViscosity, PotentialViscosity, SaturatingViscosity, Tensor, Viscosity,
     };
 

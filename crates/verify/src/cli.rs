@@ -356,8 +356,8 @@ fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), InputError> {
     set_threads(args.threads)?;
     check_study_names(&args.studies)?;
     let memory_limit = match args.memory_limit {
-        None => contact_damage::memory::default_limit(),
-        Some(gib) if gib.is_finite() && gib > 0.0 => gib * contact_damage::memory::GIB,
+        None => contact_damage::algebra::memory::default_limit(),
+        Some(gib) if gib.is_finite() && gib > 0.0 => gib * contact_damage::algebra::memory::GIB,
         Some(gib) => {
             return Err(InputError::InvalidInput(format!(
                 "--memory-limit {gib}: must be a positive number of GiB"

@@ -2,7 +2,7 @@
 //! by Kuhn triangulations with `cells` intervals per side, or a Gmsh MSH 4.1 mesh (ASCII or
 //! binary) whose physical groups of dimension d − 1 are mapped to Γ1 (`clamped`), Γ2
 //! (`traction`) and Γ3 (`contact`), refined uniformly `refinements` times
-//! ([`contact_damage::refine`]) to make the levels of a study.
+//! ([`contact_damage::fem::refine`]) to make the levels of a study.
 //!
 //! ```toml
 //! [domain]                       # a box ...
@@ -21,8 +21,8 @@
 //! The mesh of a built-in case is compiled into the program ([`BUILT_IN_MESHES`]).
 
 use crate::InputError;
-use contact_damage::gmsh::{parse_msh_bytes, PhysicalMap};
-use contact_damage::mesh::{refine_times, BoundaryPart, Mesh};
+use contact_damage::fem::mesh::{refine_times, BoundaryPart, Mesh};
+use contact_damage::io::gmsh::{parse_msh_bytes, PhysicalMap};
 use contact_input::sides::GroupFile;
 use contact_input::FileKind;
 use serde::Deserialize;

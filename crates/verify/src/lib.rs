@@ -9,10 +9,11 @@
 //! - [`case`]: manufactured cases as TOML data, validated (the `[laws]` and `[scheme]` tables
 //!   and the box sides are read by `contact-input`, as in `simulate`'s problem files);
 //! - [`manufactured`]: source terms f0, f2, f3, q derived by automatic differentiation;
-//! - [`errors`]: the components of E(h, k) of Theorem 5.2;
+//! - [`error_norms`]: the components of E(h, k) of Theorem 5.2;
 //! - [`study`]: h-, k- and diagonal studies with rates and verdicts;
 //! - [`baseline`]: the committed baseline of the built-in cases and what moved in it;
-//! - [`report`]: CSV, JSON and SVG reports, `report.md` and `tables.tex` ([`tables`]);
+//! - [`report`]: CSV, JSON and SVG reports, `report.md` and `tables.tex` ([`tables`]), from
+//!   the rows of the CSV files ([`rows`]);
 //! - [`sweep`]: plan / run one / merge / resume: manifests, the results cache, job arrays;
 //! - [`cli`]: the `verify` command line.
 
@@ -21,10 +22,11 @@ pub mod budget;
 pub mod case;
 pub mod cli;
 pub mod domain;
-pub mod errors;
+pub mod error_norms;
 pub mod manufactured;
 pub mod plot;
 pub mod report;
+pub mod rows;
 pub mod smoothness;
 pub mod study;
 pub mod sweep;

@@ -15,7 +15,7 @@ pub mod data;
 pub mod programs;
 
 use crate::expr::Expr;
-use contact_damage::laws::Tensor;
+use contact_damage::model::laws::Tensor;
 use contact_damage::scheme::Model;
 use nalgebra::{Const, SMatrix, SVector};
 use num_dual::{hessian, Dual2Vec, Dual64};
@@ -227,8 +227,8 @@ pub fn stress_at<const D: usize>(laws: &Laws<D>, state: &PointState<D>) -> Tenso
 
 /// f0 = −Div σ by the chain rule: Div σ = Div 𝒜(ε(u̇)) + Div G(ε(u), β), each law's
 /// divergence from the strain (rate), its partial derivatives ∂_j ε and ∇β
-/// ([`contact_damage::laws::Viscosity::stress_divergence`],
-/// [`contact_damage::laws::Elasticity::stress_divergence`]).
+/// ([`contact_damage::model::laws::Viscosity::stress_divergence`],
+/// [`contact_damage::model::laws::Elasticity::stress_divergence`]).
 #[inline]
 pub fn body_force_at<const D: usize>(laws: &Laws<D>, state: &PointState<D>) -> [f64; D] {
     body_force_of_strains(

@@ -5,11 +5,11 @@
 //! E(h, k) is in the asymptotic range.
 
 use crate::case::{Case, LevelStudy, TimeStudy};
-use crate::errors::{ErrorComponents, ErrorTracker, Reference};
+use crate::error_norms::{ErrorComponents, ErrorTracker, Reference};
 use crate::manufactured::data::ExactPrograms;
 use crate::output::{finite, finite_or_null, finite_or_null_each};
 use crate::InputError;
-use contact_damage::quality::shape_regularity;
+use contact_damage::fem::quality::shape_regularity;
 use contact_damage::scheme::{RunSummary, Simulation, State};
 use indicatif::{ProgressBar, ProgressStyle};
 use rayon::prelude::*;
@@ -140,7 +140,7 @@ pub struct RunResult {
     /// Number of cells of the mesh.
     pub mesh_cells: usize,
     /// Shape-regularity measure of the mesh, max_K (h_K/ρ_K) normalized by the regular
-    /// simplex ([`contact_damage::quality::shape_regularity`]; Theorem 5.2 needs it bounded).
+    /// simplex ([`contact_damage::fem::quality::shape_regularity`]; Theorem 5.2 needs it bounded).
     #[serde(serialize_with = "finite_or_null")]
     pub shape_regularity: f64,
     /// Time steps N.
@@ -567,7 +567,7 @@ pub fn reference_states<const D: usize>(
 }
 
 /// A failed run of `simulation` whose time step lies above the stability limit of the explicit
-/// terms of (5.1) ([`contact_damage::stability`]) is reported as such, naming the case and the
+/// terms of (5.1) ([`contact_damage::scheme::stability`]) is reported as such, naming the case and the
 /// level; the solver's own error (typically a Newton or friction solve that no longer
 /// converges) follows as the symptom. Other failures pass unchanged.
 fn explain_failure<const D: usize>(

@@ -3,7 +3,7 @@
 //! relative links, and as booktabs LaTeX tables (`\usepackage{booktabs}`).
 
 use crate::output::MISSING;
-use crate::report::{ErrorRow, RateRow};
+use crate::rows::{ErrorRow, RateRow};
 use crate::study::Verdict;
 
 /// A number as printed in both files: scientific with 3 decimals, or `missing` when not finite.

@@ -5,11 +5,11 @@
 //! b(y) = exp(−|y|²/0.02). Both bounds become active (β = 0 under the source once it has
 //! eroded the material, β = 1 away from it) and the active sets move with the source.
 
-use contact_damage::damage::{assemble_damage_matrix, DamageOperator};
-use contact_damage::linalg::multiply;
-use contact_damage::mesh::{BoundaryPart, Mesh};
-use contact_damage::obstacle::{BoxQpMethod, BoxQpSettings, BoxQpStats};
-use contact_damage::space::LagrangeSpace;
+use contact_damage::algebra::linalg::multiply;
+use contact_damage::fem::mesh::{BoundaryPart, Mesh};
+use contact_damage::fem::space::LagrangeSpace;
+use contact_damage::scheme::damage::{assemble_damage_matrix, DamageOperator};
+use contact_damage::solvers::box_qp::{BoxQpMethod, BoxQpSettings, BoxQpStats};
 use std::sync::Arc;
 
 /// κ of the case.

@@ -61,13 +61,13 @@ pub fn fmt_s(value: f64) -> String {
     }
 }
 
-/// Writes `contents` atomically ([`contact_damage::atomic::write_atomic`]), creating the
+/// Writes `contents` atomically ([`contact_damage::io::atomic::write_atomic`]), creating the
 /// directory first.
 pub fn write_atomically(path: &Path, contents: &str) -> Result<(), String> {
     if let Some(directory) = path.parent() {
         std::fs::create_dir_all(directory)
             .map_err(|e| format!("cannot create {}: {e}", directory.display()))?;
     }
-    contact_damage::atomic::write_atomic(path, |out| out.write_all(contents.as_bytes()))
+    contact_damage::io::atomic::write_atomic(path, |out| out.write_all(contents.as_bytes()))
         .map_err(|e| e.to_string())
 }

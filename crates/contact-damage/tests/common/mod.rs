@@ -1,15 +1,15 @@
 //! Shared builders for the integration tests.
 #![allow(dead_code)]
 
-use contact_damage::assembly::{field_strain, physical_gradients};
-use contact_damage::contact::ContactNodes;
-use contact_damage::laws::{
+use contact_damage::fem::mesh::{BoundaryPart, Mesh};
+use contact_damage::fem::quadrature::QuadratureRule;
+use contact_damage::fem::space::{LagrangeSpace, Tabulation};
+use contact_damage::model::contact::ContactNodes;
+use contact_damage::model::laws::{
     DamageSourceFn, DamagedHooke, LinearViscosity, NormalComplianceCoulomb, Tensor, Viscosity,
 };
-use contact_damage::mesh::{BoundaryPart, Mesh};
-use contact_damage::quadrature::QuadratureRule;
+use contact_damage::scheme::assembly::{field_strain, physical_gradients};
 use contact_damage::scheme::{Data, Model, Problem, SchemeSettings};
-use contact_damage::space::{LagrangeSpace, Tabulation};
 use nalgebra::SVector;
 use std::sync::Arc;
 
@@ -346,7 +346,7 @@ pub fn velocity_kkt<const D: usize>(
     kkt
 }
 
-/// The constrained unknowns of [`contact_damage::velocity::VelocityOperator::new`]: every
+/// The constrained unknowns of [`contact_damage::scheme::velocity::VelocityOperator::new`]: every
 /// component of every node of Γ1.
 pub fn clamped_unknowns<const D: usize>(space: &LagrangeSpace<D>) -> Vec<bool> {
     let mut constrained = vec![false; space.num_nodes() * D];

@@ -8,8 +8,8 @@
 //! the operations of [`Program::eval_into`] on `f64`, so the results are bitwise those of the
 //! point-by-point evaluation.
 
-use super::compiled::Instruction;
-use super::{maximum, minimum, picks_first, Program, UnaryFunction};
+use super::compiled::{Instruction, Program};
+use super::{maximum, minimum, picks_first, UnaryFunction};
 
 impl Program {
     /// Evaluate at `count` points; `inputs[v]` holds the `count` values of variable `v`.

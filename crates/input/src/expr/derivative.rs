@@ -19,8 +19,8 @@
 
 use std::collections::HashMap;
 
-use super::compiled::{Builder, Instruction, Register};
-use super::{Expr, Program, UnaryFunction};
+use super::compiled::{Builder, Instruction, Program, Register};
+use super::{Expr, UnaryFunction};
 
 /// A value on a tape: a register, or `None` for an identically zero function.
 pub type Value = Option<Register>;

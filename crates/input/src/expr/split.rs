@@ -40,8 +40,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, RwLock};
 
 use super::batch::Inputs;
-use super::compiled::{with_registers, Builder, Instruction, Register};
-use super::Program;
+use super::compiled::{with_registers, Builder, Instruction, Program, Register};
 
 /// Points per batch of an evaluation: the dispatch on an instruction and the lookup of its
 /// operand columns are paid once per batch, and each instruction is a loop of `BATCH / 4`

@@ -1,7 +1,7 @@
 //! Helpers shared by the integration tests of `simulate` (each test file uses some of them).
 #![allow(dead_code)]
 
-use contact_damage::mesh::{BoundaryPart, Mesh};
+use contact_damage::fem::mesh::{BoundaryPart, Mesh};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 

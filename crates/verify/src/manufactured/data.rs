@@ -1,5 +1,5 @@
 //! The manufactured data f0, f2, f3, q and κ∂β/∂ν (docs/model.md §5) as batched fields of the
-//! solver ([`contact_damage::fields`]): the exact fields' derivatives come from the programs
+//! solver ([`contact_damage::model::fields`]): the exact fields' derivatives come from the programs
 //! compiled once per case ([`ExactPrograms`]), evaluated over the scheme's batches of quadrature
 //! points; the chain rule through the laws is applied per point (the `*_at` / `*_of_*`
 //! formulas of the parent module): f0 by one call per law and batch of its stress divergence
@@ -16,10 +16,10 @@ use super::{
     contact_traction_at, damage_flux_at, damage_supply_of_source, traction_at, DamageJet,
     ExactSolution, Laws, PointState,
 };
-use contact_damage::fields::{
+use contact_damage::model::fields::{
     BatchBoundaryScalarField, BatchBoundaryVectorField, BatchScalarField, BatchVectorField,
 };
-use contact_damage::laws::{FieldJets, Tensor};
+use contact_damage::model::laws::{FieldJets, Tensor};
 use nalgebra::{SMatrix, SVector};
 use std::cell::RefCell;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -159,8 +159,8 @@ struct SupplyHandOver {
 /// Measured over 196 608 points of `zones2d` (the 128-cell level), one thread: 52 ns per
 /// point and time with one time per call, 41 with 2, 30 with 4, 27 with 8, 25 with 16 (the
 /// rate of 16 384 points, whose values stay in the cache, is 25–27 ns). 16, as
-/// [`crate::errors::STATES_PER_BLOCK`] (measured there); the solver caps a block at
-/// [`contact_damage::loads::BULK_DATA_BYTES`] (14 times at 128 cells).
+/// [`crate::error_norms::STATES_PER_BLOCK`] (measured there); the solver caps a block at
+/// [`contact_damage::scheme::loads::BULK_DATA_BYTES`] (14 times at 128 cells).
 pub const TIMES_PER_EVALUATION: usize = 16;
 
 thread_local! {

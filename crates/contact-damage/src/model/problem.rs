@@ -1,0 +1,51 @@
+//! Problem P of §2–3 as data: the constitutive laws and the damage diffusion ([`Model`]), and
+//! the loads, gap, Dirichlet data and initial data ([`Data`]).
+
+use crate::model::dirichlet::PrescribedDisplacement;
+use crate::model::fields::{
+    BoundaryScalarField, BoundaryVectorField, PointScalarField, ScalarField, StaticScalarField,
+    StaticVectorField, VectorField,
+};
+use crate::model::laws::{ContactLaw, DamageSource, Elasticity, Viscosity};
+use std::sync::Arc;
+
+/// The constitutive laws of Problem P (§2) and the damage diffusion κ of (2.2).
+#[derive(Clone)]
+pub struct Model<const D: usize> {
+    /// 𝒜, acting on ε(u̇).
+    pub viscosity: Arc<dyn Viscosity<D>>,
+    /// G(ε(u), β).
+    pub elasticity: Arc<dyn Elasticity<D>>,
+    /// φ(ε(u), β).
+    pub damage_source: Arc<dyn DamageSource<D>>,
+    /// p_ν and p_τ.
+    pub contact: Arc<dyn ContactLaw>,
+    /// κ > 0.
+    pub damage_diffusion: f64,
+}
+
+/// Loads, gap and initial data. Everything but the gap and the initial data is optional.
+#[derive(Clone)]
+pub struct Data<const D: usize> {
+    /// Body force f0 (2.3).
+    pub body_force: Option<VectorField<D>>,
+    /// Traction f2 on Γ2 (2.6).
+    pub traction: Option<BoundaryVectorField<D>>,
+    /// Extra traction f3 on Γ3 (used by manufactured solutions, docs/model.md §5): adds ∫_Γ3 f3·w.
+    pub contact_traction: Option<BoundaryVectorField<D>>,
+    /// Extra damage supply q added to φ (manufactured solutions).
+    pub damage_supply: Option<ScalarField<D>>,
+    /// Damage flux κ ∂β/∂ν on Γ (zero in (2.4); nonzero for manufactured solutions).
+    pub damage_flux: Option<BoundaryScalarField<D>>,
+    /// Gap g(x, t) on Γ3, measured along the outward normal. It may move and be negative (a
+    /// rigid obstacle pushed into the body); the explicit scheme (5.1) takes it at t_{n−1},
+    /// with u_{n−1}, the implicit normal compliance at t_n (see [`ContactTreatment`](crate::scheme::ContactTreatment)).
+    pub gap: PointScalarField<D>,
+    /// Parts of Γ1 with a prescribed displacement u = u_D(x, t), some components or all; the
+    /// Γ1 facets of no part are clamped, u = 0 (2.5). Empty: the paper's Γ1.
+    pub dirichlet: Vec<PrescribedDisplacement<D>>,
+    /// u0 (must equal u_D(·, 0) on the prescribed components of Γ1, 0 on the clamped ones).
+    pub initial_displacement: StaticVectorField<D>,
+    /// β0 with values in [0, 1].
+    pub initial_damage: StaticScalarField<D>,
+}

@@ -1,0 +1,173 @@
+//! The damage step (5.2): a parabolic obstacle problem, i.e. the box-constrained quadratic
+//! program
+//!
+//! minimize ½ βᵀ (M/k + κ K) β − bᵀ β  over  𝒦^h = {β ∈ X^h : 0 ≤ β(x_a) ≤ 1 at every node a},
+//! b = M β_{n−1}/k + ⟨φ(ε(u_{n−1}), β_{n−1}) + q_n, φ_a⟩ (+ boundary flux),
+//!
+//! with the **consistent** mass matrix M: it is the L² inner product ⟨·,·⟩ of (5.2) itself, so no
+//! variational crime is added, and it is the only choice for P2 (row-sum lumping of P2 on
+//! simplices gives zero or negative vertex masses). M/k + κK is then SPD but not an M-matrix
+//! (positive off-diagonal mass entries), so the solver is one of the globally convergent
+//! methods of [`crate::solvers::box_qp`]: by default the truncated nonsmooth Newton multigrid on an
+//! algebraic hierarchy of M/k + κK, built once per run (no factorization); optionally the
+//! active set method, which factorizes M/k + κK once (in the first step) and solves the reduced
+//! systems of every step by conjugate gradients preconditioned with that factor. For l = 2,
+//! 𝒦^h is the set of P2 fields whose nodal values lie in [0, 1] (a field may leave [0, 1]
+//! slightly between nodes).
+
+use crate::algebra::linalg::{multiply_symmetric, SparsityPattern};
+use crate::error::{Error, Result};
+use crate::fem::quadrature::QuadratureRule;
+use crate::fem::space::{LagrangeSpace, Tabulation};
+use crate::scheme::assembly::damage_element_matrix;
+use crate::solvers::box_qp::{BoxQpSettings, BoxQpSolver, BoxQpStats};
+use faer::sparse::{Pair, SparseColMat};
+use rayon::prelude::*;
+use std::sync::Arc;
+
+/// Assembles the scalar matrix m·M + κ·K on the space (consistent mass, exact quadrature).
+pub fn assemble_damage_matrix<const D: usize>(
+    space: &LagrangeSpace<D>,
+    mass_coefficient: f64,
+    diffusion: f64,
+) -> Result<SparseColMat<usize, f64>> {
+    let n = space.nodes_per_cell();
+    let n_cells = space.mesh().num_cells();
+    let mut pairs = Vec::with_capacity(n_cells * n * n);
+    for cell in 0..n_cells {
+        let nodes = space.cell_nodes(cell);
+        for &row in nodes {
+            for &col in nodes {
+                pairs.push(Pair::new(row as isize, col as isize));
+            }
+        }
+    }
+    let pattern = SparsityPattern::from_pairs(space.num_nodes(), &pairs)?;
+    let tabulation = Tabulation::cell_rule(
+        space.element(),
+        &QuadratureRule::<D>::simplex(2 * space.degree()),
+    );
+    let mut values = vec![0.0; pairs.len()];
+    values
+        .par_chunks_mut(n * n)
+        .enumerate()
+        .for_each(|(cell, out)| {
+            damage_element_matrix(space, &tabulation, cell, mass_coefficient, diffusion, out);
+        });
+    pattern.matrix(&values)
+}
+
+/// The damage operator of (5.2) for one mesh, κ and k: the matrix M/k + κK with its symbolic
+/// analysis (once), and the mass matrix for the right-hand side.
+pub struct DamageOperator<const D: usize> {
+    space: Arc<LagrangeSpace<D>>,
+    mass: SparseColMat<usize, f64>,
+    time_step: f64,
+    solver: BoxQpSolver,
+}
+
+/// Result of a damage step.
+#[derive(Debug, Clone)]
+pub struct DamageSolution {
+    /// Nodal damage values β_n ∈ [0, 1].
+    pub damage: Vec<f64>,
+    /// Statistics of the box-QP solver (iterations, KKT residual, active bounds).
+    pub stats: BoxQpStats,
+}
+
+impl<const D: usize> DamageOperator<D> {
+    /// Assembles M/k + κK and analyses it. Errors name κ or k when they are not positive.
+    pub fn new(
+        space: Arc<LagrangeSpace<D>>,
+        diffusion: f64,
+        time_step: f64,
+        settings: BoxQpSettings,
+    ) -> Result<Self> {
+        if !(diffusion.is_finite() && diffusion > 0.0) {
+            return Err(Error::parameter(
+                "damage_diffusion",
+                diffusion,
+                "κ must be > 0 (2.2)",
+            ));
+        }
+        if !(time_step.is_finite() && time_step > 0.0) {
+            return Err(Error::parameter("time_step", time_step, "k must be > 0"));
+        }
+        let mass = assemble_damage_matrix(&space, 1.0, 0.0)?;
+        let operator = assemble_damage_matrix(&space, 1.0 / time_step, diffusion)?;
+        let solver = BoxQpSolver::new(operator, settings)?;
+        Ok(Self {
+            space,
+            mass,
+            time_step,
+            solver,
+        })
+    }
+
+    /// The box-QP solver (its matrix M/k + κK and its factor).
+    pub fn solver(&self) -> &BoxQpSolver {
+        &self.solver
+    }
+
+    /// The space of the damage field.
+    pub fn space(&self) -> &Arc<LagrangeSpace<D>> {
+        &self.space
+    }
+
+    /// Solves (5.2): `source` holds ⟨φ_{n−1} + q_n, φ_a⟩ plus boundary fluxes; `previous` is
+    /// β_{n−1} and `before_previous` β_{n−2}, or empty (at n = 1, or when it is not known).
+    ///
+    /// The box QP starts from the linear extrapolation clamp(2β_{n−1} − β_{n−2}, 0, 1), or from
+    /// β_{n−1} when β_{n−2} is empty. The start only decides how many iterations the solver
+    /// needs (the solution is the unique minimizer, to the solver's tolerance): for a smooth
+    /// evolution the extrapolation is O(k²) from β_n where β_{n−1} is O(k). Measured on
+    /// `zones2d` at 128 cells and 128 steps: 514 multigrid iterations in all from β_{n−1},
+    /// 387 from the extrapolation.
+    pub fn solve(
+        &mut self,
+        source: &[f64],
+        previous: &[f64],
+        before_previous: &[f64],
+    ) -> Result<DamageSolution> {
+        let n = self.space.num_nodes();
+        if source.len() != n
+            || previous.len() != n
+            || !(before_previous.is_empty() || before_previous.len() == n)
+        {
+            return Err(Error::InvalidInput(format!(
+                "damage step: source has {} values, previous damage {} and the one before {}, expected {n} (or 0 for the last)",
+                source.len(),
+                previous.len(),
+                before_previous.len()
+            )));
+        }
+        if let Some(i) = source.iter().position(|v| !v.is_finite()) {
+            return Err(Error::NonFinite(format!(
+                "damage source at node {i} ({:?})",
+                self.space.node(i)
+            )));
+        }
+        let inertia = multiply_symmetric(&self.mass, previous);
+        let rhs: Vec<f64> = inertia
+            .iter()
+            .zip(source)
+            .map(|(m, s)| m / self.time_step + s)
+            .collect();
+        let mut damage = if before_previous.is_empty() {
+            previous
+                .iter()
+                .map(|b| b.clamp(0.0, 1.0))
+                .collect::<Vec<_>>()
+        } else {
+            previous
+                .iter()
+                .zip(before_previous)
+                .map(|(b, before)| (2.0 * b - before).clamp(0.0, 1.0))
+                .collect::<Vec<_>>()
+        };
+        let lower = vec![0.0; n];
+        let upper = vec![1.0; n];
+        let stats = self.solver.solve(&rhs, &lower, &upper, &mut damage)?;
+        Ok(DamageSolution { damage, stats })
+    }
+}
