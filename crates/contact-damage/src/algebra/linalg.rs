@@ -531,6 +531,12 @@ pub fn multiply(matrix: &SparseColMat<usize, f64>, x: &[f64]) -> Vec<f64> {
     y
 }
 
+/// The Euclidean inner product `uᵀv`, summed in index order (the same bits on every run and
+/// any number of threads).
+pub fn dot(u: &[f64], v: &[f64]) -> f64 {
+    u.iter().zip(v).map(|(a, b)| a * b).sum()
+}
+
 /// `product = A x` into a given vector (column-oriented scatter, valid for any stored matrix;
 /// `product` has `A.nrows()` entries).
 pub fn multiply_into(matrix: &SparseColMat<usize, f64>, x: &[f64], product: &mut [f64]) {

@@ -34,7 +34,7 @@
 //! and p_ν′ at the largest current penetration (at least just past contact onset), on every
 //! contact node at once.
 
-use crate::algebra::linalg::multiply;
+use crate::algebra::linalg::{dot, multiply};
 use crate::error::{Error, Result};
 use crate::fem::quadrature::QuadratureRule;
 use crate::fem::space::Tabulation;
@@ -246,10 +246,6 @@ fn largest_ritz_pair(diagonal: &[f64], off_diagonal: &[f64]) -> (f64, f64) {
         eigen.eigenvalues[largest],
         eigen.eigenvectors[(k - 1, largest)].abs(),
     )
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 #[cfg(test)]

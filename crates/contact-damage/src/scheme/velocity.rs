@@ -61,7 +61,7 @@
 //! residual history.
 
 use crate::algebra::linalg::{
-    max_abs, max_abs_free, multiply_symmetric, CholeskySolver, SparsityPattern,
+    dot, max_abs, max_abs_free, multiply_symmetric, CholeskySolver, SparsityPattern,
 };
 use crate::algebra::ordering::{fill_reducing_node_order, NodeGraph};
 use crate::error::{Error, Result};
@@ -1467,10 +1467,6 @@ fn add_to_diagonal(matrix: &mut SparseColMat<usize, f64>, index: usize, value: f
     if let Some(position) = position {
         matrix.val_mut()[position] += value;
     }
-}
-
-fn dot(a: &[f64], b: &[f64]) -> f64 {
-    a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
 /// `A B` on the calling thread. faer's `*` takes the global parallelism, and its parallel

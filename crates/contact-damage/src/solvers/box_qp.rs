@@ -191,7 +191,7 @@ use faer::sparse::{SparseColMat, Triplet};
 use faer::MatMut;
 
 pub use crate::algebra::linalg::FactorKind;
-use crate::algebra::linalg::{max_abs, max_abs_free, multiply_into, CholeskySolver};
+use crate::algebra::linalg::{dot, max_abs, max_abs_free, multiply_into, CholeskySolver};
 use crate::algebra::multigrid::{for_each_row, inverse, Csr, Hierarchy};
 use crate::error::{Error, History, Result};
 use crate::solvers::box_qp_coarse::{bound_violations, CoarseObstacle, NestedBoxQp};
@@ -1612,11 +1612,6 @@ fn residual_gradient(rows: &Csr, x: &[f64], rhs: &[f64], gradient: &mut [f64], m
     for mark in marks.iter_mut() {
         *mark &= !STALE;
     }
-}
-
-/// `uᵀv`.
-fn dot(u: &[f64], v: &[f64]) -> f64 {
-    u.iter().zip(v).map(|(a, b)| a * b).sum()
 }
 
 /// Active set classification of (★) with `c_i = A_ii`; indices with `lower_i = upper_i` are

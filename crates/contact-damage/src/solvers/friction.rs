@@ -96,7 +96,7 @@ use faer::linalg::matmul::matmul;
 use faer::prelude::*;
 use faer::{Accum, Conj};
 
-use crate::algebra::linalg::max_abs;
+use crate::algebra::linalg::{dot, max_abs};
 use crate::error::History;
 use crate::error::{Error, Result};
 
@@ -653,10 +653,6 @@ fn block_norm(block: &[f64]) -> f64 {
         [first, second] => first.hypot(*second),
         _ => block.iter().map(|v| v * v).sum::<f64>().sqrt(),
     }
-}
-
-fn dot(left: &[f64], right: &[f64]) -> f64 {
-    left.iter().zip(right).map(|(a, b)| a * b).sum()
 }
 
 /// Block soft-thresholding y ↦ max(0, 1 − threshold/|y|) y, in place.
