@@ -6,6 +6,7 @@
 //! - every flag and subcommand of `verify` is in `docs/reference/cli.md`, and every flag listed
 //!   there for `verify` exists (read from clap's description of the command line);
 //! - every `verify` command line in the code blocks of `README.md` and `docs/` parses;
+//! - the cheap `verify` command lines of the guide run as written ([`CHEAP_COMMANDS`]);
 //! - `verify --help` exits successfully.
 
 mod guide;
@@ -15,7 +16,8 @@ use contact_input::sides::parse_sides;
 use contact_input::FileKind;
 use guide::{
     assert_no_problems, compare_cli, compare_keys, doc_commands, expand, harvest,
-    names_in_use_list, read, reference_keys, workspace_root, CommandSpec, Entries, Keys,
+    names_in_use_list, read, reference_keys, run_cheap_commands, workspace_root, CommandSpec,
+    Entries, Keys,
 };
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -279,5 +281,33 @@ fn verify_help_exits_successfully() {
         "`verify --help` exited with {}: {stdout}{}",
         output.status,
         String::from_utf8_lossy(&output.stderr)
+    );
+}
+
+/// The `verify` command lines of the guide that take seconds, run by
+/// [`the_cheap_verify_commands_of_the_guide_run`] exactly as written (arguments after
+/// `cargo run -p verify --`), with their output folder moved to a scratch folder, and the exit
+/// status the page promises: 0 for PASS, 3 for the DRIFTING verdict of the three coarsest 3D
+/// levels.
+const CHEAP_COMMANDS: &[(&str, &[i32])] = &[
+    (
+        "--case verification/slip2d.toml --studies h --levels 4 --out /tmp/slip",
+        &[0],
+    ),
+    ("--dim 3 --levels 3", &[3]),
+];
+
+/// The cheap command lines of the guide run to the end with the verdict the page states.
+#[test]
+fn the_cheap_verify_commands_of_the_guide_run() {
+    let problems = run_cheap_commands(
+        &root(),
+        "verify",
+        env!("CARGO_BIN_EXE_verify"),
+        CHEAP_COMMANDS,
+    );
+    assert_no_problems(
+        "cheap `verify` command lines of the guide that fail",
+        &problems,
     );
 }

@@ -1055,3 +1055,94 @@ pub fn doc_commands(root: &Path, program: &str) -> (Vec<DocCommand>, Vec<(DocCom
     }
     (checked, skipped)
 }
+
+/// The guide's command line `args` (after the program name) found among `commands`, or a
+/// message saying it is gone from the guide (the list of cheap commands a test runs must follow
+/// the pages).
+pub fn find_doc_command<'a>(
+    commands: &'a [DocCommand],
+    args: &str,
+) -> Result<&'a DocCommand, String> {
+    commands
+        .iter()
+        .find(|command| command.args.join(" ") == args)
+        .ok_or_else(|| {
+            format!("`{args}` is no longer a command line of the guide: update the list of cheap commands")
+        })
+}
+
+/// The arguments of a guide command with its output redirected into `scratch`: the value of
+/// `--out` or `--manifest` becomes a path under `scratch` with the same file name, and a command
+/// without `--out` gets `--out scratch/<stem of its first argument>` (so that a run never writes
+/// into the checkout, and commands on the same input share their folder as on the page).
+pub fn redirected_args(args: &[String], scratch: &Path) -> Vec<String> {
+    let mut redirected = Vec::with_capacity(args.len() + 2);
+    let mut has_out = false;
+    let mut words = args.iter();
+    while let Some(word) = words.next() {
+        redirected.push(word.clone());
+        if word == "--out" || word == "--manifest" {
+            has_out |= word == "--out";
+            if let Some(value) = words.next() {
+                let name = Path::new(value).file_name().unwrap_or_default();
+                redirected.push(scratch.join(name).display().to_string());
+            }
+        }
+    }
+    if !has_out {
+        let stem = args
+            .iter()
+            .find(|word| !word.starts_with('-'))
+            .and_then(|word| Path::new(word).file_stem())
+            .map(|stem| stem.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "default".into());
+        redirected.push("--out".into());
+        redirected.push(scratch.join(stem).display().to_string());
+    }
+    redirected
+}
+
+/// Runs the guide's command lines `cheap` (arguments after the program name, exactly as on the
+/// page, each with the exit statuses it may end with) with `binary` in the workspace root, in
+/// order, each with its output redirected into one scratch folder ([`redirected_args`]);
+/// returns one message per command that is gone from the guide or exits otherwise.
+pub fn run_cheap_commands(
+    root: &Path,
+    program: &str,
+    binary: &str,
+    cheap: &[(&str, &[i32])],
+) -> Vec<String> {
+    let (commands, _) = doc_commands(root, program);
+    let scratch = tempfile::tempdir().expect("a temporary folder");
+    let mut problems = Vec::new();
+    for &(args, accepted) in cheap {
+        let command = match find_doc_command(&commands, args) {
+            Ok(command) => command,
+            Err(problem) => {
+                problems.push(problem);
+                continue;
+            }
+        };
+        let argv = redirected_args(&command.args, scratch.path());
+        let output = std::process::Command::new(binary)
+            .args(&argv)
+            .current_dir(root)
+            .output()
+            .unwrap_or_else(|error| panic!("`{program}` starts: {error}"));
+        let status = output.status.code().unwrap_or(-1);
+        eprintln!(
+            "{}:{}: `{program} {args}` exited with {status}",
+            command.file, command.line
+        );
+        if !accepted.contains(&status) {
+            problems.push(format!(
+                "{}:{}: `{program} {}` exited with {status}:\n{}",
+                command.file,
+                command.line,
+                argv.join(" "),
+                String::from_utf8_lossy(&output.stderr).trim()
+            ));
+        }
+    }
+    problems
+}

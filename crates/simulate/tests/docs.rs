@@ -22,8 +22,8 @@ use contact_input::sides::parse_sides;
 use contact_input::FileKind;
 use guide::{
     assert_no_problems, compare_cli, compare_keys, doc_commands, expand, harvest,
-    names_in_use_list, read, reference_keys, workspace_root, ArgSpec, CommandSpec, DocCommand,
-    Entries, Keys,
+    names_in_use_list, read, reference_keys, run_cheap_commands, workspace_root, ArgSpec,
+    CommandSpec, DocCommand, Entries, Keys,
 };
 use simulate::problem::parse_problem_file;
 use std::collections::BTreeMap;
@@ -362,5 +362,30 @@ fn simulate_help_exits_successfully() {
         "`simulate --help` exited with {}: {stdout}{}",
         output.status,
         String::from_utf8_lossy(&output.stderr)
+    );
+}
+
+/// The `simulate` command lines of the guide that take seconds, run by
+/// [`the_cheap_simulate_commands_of_the_guide_run`] in this order, exactly as written (arguments
+/// after `cargo run -p simulate --`), with their output folder moved to a scratch folder (the
+/// three on `block_3d.toml` share theirs, so the restart continues the run before it).
+const CHEAP_COMMANDS: &[(&str, &[i32])] = &[
+    ("crates/simulate/examples/rectangle_2d.toml", &[0]),
+    ("crates/simulate/examples/plate_with_hole_2d.toml", &[0]),
+    ("crates/simulate/examples/block_3d.toml", &[0]),
+    ("crates/simulate/examples/bracket_3d.toml", &[0]),
+    (
+        "crates/simulate/examples/block_3d.toml --until-step 30 --overwrite",
+        &[0],
+    ),
+    ("crates/simulate/examples/block_3d.toml --resume", &[0]),
+];
+
+#[test]
+fn the_cheap_simulate_commands_of_the_guide_run() {
+    let problems = run_cheap_commands(&root(), "simulate", SIMULATE, CHEAP_COMMANDS);
+    assert_no_problems(
+        "cheap `simulate` command lines of the guide that fail",
+        &problems,
     );
 }
