@@ -9,7 +9,7 @@
 //! point-by-point evaluation.
 
 use super::compiled::{Instruction, Program};
-use super::{maximum, minimum, picks_first, UnaryFunction};
+use super::tree::{maximum, minimum, picks_first, UnaryFunction};
 
 impl Program {
     /// Evaluate at `count` points; `inputs[v]` holds the `count` values of variable `v`.

@@ -35,6 +35,8 @@
 //! thread), which share few subexpressions. What made the harness fast is the combination of
 //! symbolic derivatives sharing their subexpressions on one tape ([`super::derivative`]) with
 //! batched `f64` evaluation ([`super::batch`]).
+//!
+//! [`Expr`]: super::Expr
 
 use std::any::Any;
 use std::cell::RefCell;
@@ -42,7 +44,7 @@ use std::collections::HashMap;
 
 use num_dual::DualNum;
 
-use super::{maximum, minimum, picks_first, Expr, Node, UnaryFunction};
+use super::tree::{maximum, minimum, picks_first, Node, UnaryFunction};
 
 /// Index of a register (= of the instruction that writes it).
 pub(super) type Register = u32;
@@ -281,24 +283,6 @@ impl Program {
         builder.finish(outputs, variables)
     }
 
-    /// One program computing all `expressions` (outputs in the given order), sharing their
-    /// common subexpressions.
-    ///
-    /// # Panics
-    /// If the expressions were not parsed with the same variable list (a programming error).
-    pub fn fuse(expressions: &[&Expr]) -> Program {
-        let variables = expressions.first().map_or(&[][..], |e| e.variables());
-        for expression in expressions {
-            assert_eq!(
-                expression.variables(),
-                variables,
-                "Program::fuse: `{expression}` has other variables"
-            );
-        }
-        let roots: Vec<&Node> = expressions.iter().map(|e| &e.root).collect();
-        Program::compile(&roots, variables.len())
-    }
-
     /// Number of instructions (= registers used by an evaluation).
     pub fn len(&self) -> usize {
         self.instructions.len()
@@ -440,6 +424,7 @@ pub fn with_registers<T: 'static, R>(f: impl FnOnce(&mut Vec<T>) -> R) -> R {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::expr::Expr;
     use std::collections::BTreeMap;
 
     fn parse(source: &str) -> Expr {

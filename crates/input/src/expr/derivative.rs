@@ -20,7 +20,8 @@
 use std::collections::HashMap;
 
 use super::compiled::{Builder, Instruction, Program, Register};
-use super::{Expr, UnaryFunction};
+use super::expression::Expr;
+use super::tree::UnaryFunction;
 
 /// A value on a tape: a register, or `None` for an identically zero function.
 pub type Value = Option<Register>;

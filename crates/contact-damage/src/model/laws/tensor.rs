@@ -1,0 +1,71 @@
+//! The tensor type shared by the constitutive laws (paper §2–3), its trace and deviator, the
+//! jets of smooth fields that the laws' divergences take, and the finiteness check of their
+//! parameters.
+
+use crate::error::{Error, Result};
+use nalgebra::{SMatrix, SVector};
+
+/// A symmetric second-order tensor in R^D (strain, strain rate, stress).
+pub type Tensor<const D: usize> = SMatrix<f64, D, D>;
+
+pub(super) fn trace<const D: usize>(tensor: &Tensor<D>) -> f64 {
+    tensor.trace()
+}
+
+pub(super) fn deviator<const D: usize>(tensor: &Tensor<D>) -> Tensor<D> {
+    tensor - Tensor::<D>::identity() * (trace(tensor) / D as f64)
+}
+
+pub(super) fn check_finite(name: &str, value: f64) -> Result<()> {
+    if value.is_finite() {
+        Ok(())
+    } else {
+        Err(Error::parameter(name, value, "must be finite"))
+    }
+}
+
+/// The first and second partial derivatives of a smooth vector field w at a batch of points,
+/// one slice per derivative (structure of arrays, as a compiled program of the exact fields
+/// writes them): `gradient[i][k][p]` = ∂w_i/∂x_k and `second[j][i][k][p]` = ∂²w_i/∂x_k∂x_j
+/// at point p. The strain ε(w) and its derivatives ∂_j ε(w), which the laws' divergences take,
+/// are their symmetric parts ([`FieldJets::strain`], [`FieldJets::strain_derivatives`]).
+#[derive(Debug, Clone, Copy)]
+pub struct FieldJets<'a, const D: usize> {
+    /// ∂w_i/∂x_k, by i and k.
+    pub gradient: [[&'a [f64]; D]; D],
+    /// ∂²w_i/∂x_k∂x_j, by j, i and k.
+    pub second: [[[&'a [f64]; D]; D]; D],
+}
+
+impl<const D: usize> FieldJets<'_, D> {
+    /// ε(w) = (∇w + ∇wᵀ)/2 at point p.
+    #[inline(always)]
+    pub fn strain(&self, p: usize) -> Tensor<D> {
+        Tensor::<D>::from_fn(|i, k| (self.gradient[i][k][p] + self.gradient[k][i][p]) * 0.5)
+    }
+
+    /// ∂_j ε(w) at point p, for j < D.
+    #[inline(always)]
+    pub fn strain_derivatives(&self, p: usize) -> [Tensor<D>; D] {
+        std::array::from_fn(|j| {
+            let second = &self.second[j];
+            Tensor::<D>::from_fn(|i, k| (second[i][k][p] + second[k][i][p]) * 0.5)
+        })
+    }
+}
+
+/// Σ_j (∂_j ε)_ij and tr(∂_i ε) for i < D: the two contractions that the divergence of an
+/// isotropic linear law 2a ε + b tr(ε) I needs, `(2a Σ_j (∂_j ε)_ij + b tr(∂_i ε))_i`.
+pub(super) fn isotropic_divergence<const D: usize>(
+    twice_shear: f64,
+    trace_factor: f64,
+    derivatives: &[Tensor<D>; D],
+) -> SVector<f64, D> {
+    SVector::<f64, D>::from_fn(|i, _| {
+        let mut column_sum = 0.0;
+        for (j, derivative) in derivatives.iter().enumerate() {
+            column_sum += derivative[(i, j)];
+        }
+        twice_shear * column_sum + trace_factor * trace(&derivatives[i])
+    })
+}
