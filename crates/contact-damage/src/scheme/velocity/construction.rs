@@ -1,0 +1,168 @@
+//! Construction of the velocity operator of (5.1): the constrained unknowns (Γ1), the assembly
+//! pattern, the quadrature and the symbolic analysis with the tangential contact unknowns
+//! eliminated last.
+
+use super::operator::VelocityOperator;
+use crate::algebra::linalg::{CholeskySolver, SparsityPattern};
+use crate::algebra::ordering::{fill_reducing_node_order, NodeGraph};
+use crate::error::{Error, Result};
+use crate::fem::mesh::BoundaryPart;
+use crate::fem::quadrature::QuadratureRule;
+use crate::fem::space::{LagrangeSpace, Tabulation};
+use crate::model::contact::ContactNodes;
+use crate::model::laws::Viscosity;
+use faer::sparse::{Pair, SparseColMat};
+use faer::Mat;
+use std::sync::Arc;
+
+impl<const D: usize> VelocityOperator<D> {
+    /// Builds the pattern and does the symbolic analysis (expensive, once per mesh and law),
+    /// with every component of every node of Γ1 constrained (the paper's u = 0 on Γ1, (2.5)).
+    pub fn new(
+        space: Arc<LagrangeSpace<D>>,
+        law: Arc<dyn Viscosity<D>>,
+        contact: Arc<ContactNodes<D>>,
+    ) -> Result<Self> {
+        let mut constrained = vec![false; space.num_nodes() * D];
+        for node in space.boundary_nodes(BoundaryPart::Dirichlet) {
+            constrained[node * D..node * D + D].fill(true);
+        }
+        Self::with_constraints(space, law, contact, constrained)
+    }
+
+    /// [`Self::new`] with the constrained unknowns given (Cartesian components, node-major):
+    /// rollers and symmetry planes constrain some components of a node only. A contact node
+    /// may not be constrained ([`Error::InvalidInput`] naming the node).
+    pub fn with_constraints(
+        space: Arc<LagrangeSpace<D>>,
+        law: Arc<dyn Viscosity<D>>,
+        contact: Arc<ContactNodes<D>>,
+        constrained: Vec<bool>,
+    ) -> Result<Self> {
+        law.validate()?;
+        let n_nodes = space.num_nodes();
+        if constrained.len() != n_nodes * D {
+            return Err(Error::InvalidInput(format!(
+                "{} constraint flags for {} unknowns",
+                constrained.len(),
+                n_nodes * D
+            )));
+        }
+        if let Some(&node) = contact
+            .nodes
+            .iter()
+            .find(|&&node| constrained[node * D..node * D + D].contains(&true))
+        {
+            return Err(Error::InvalidInput(format!(
+                "contact node {node} at {:?} has a constrained component (Γ1 and Γ3 overlap)",
+                space.node(node)
+            )));
+        }
+        let size = n_nodes * D;
+        let n_local = space.nodes_per_cell() * D;
+        let n_cells = space.mesh().num_cells();
+        let constrained_count = constrained.iter().filter(|&&c| c).count();
+        let mut pairs = Vec::with_capacity(n_cells * n_local * n_local + constrained_count);
+        let mut dofs = vec![0isize; n_local];
+        let mut constrained_cells = Vec::new();
+        for cell in 0..n_cells {
+            let mut touches = false;
+            for (a, &node) in space.cell_nodes(cell).iter().enumerate() {
+                for i in 0..D {
+                    dofs[a * D + i] = if constrained[node * D + i] {
+                        touches = true;
+                        -1
+                    } else {
+                        (node * D + i) as isize
+                    };
+                }
+            }
+            if touches {
+                constrained_cells.push(cell);
+            }
+            for &row in &dofs {
+                for &col in &dofs {
+                    pairs.push(Pair::new(row, col));
+                }
+            }
+        }
+        for (dof, _) in constrained.iter().enumerate().filter(|(_, &c)| c) {
+            pairs.push(Pair::new(dof as isize, dof as isize));
+        }
+        let pattern = SparsityPattern::from_pairs(size, &pairs)?;
+        drop(pairs);
+        let degree = if law.is_linear() {
+            2 * space.degree() - 2
+        } else {
+            2 * space.degree()
+        };
+        let tabulation =
+            Tabulation::cell_rule(space.element(), &QuadratureRule::<D>::simplex(degree));
+        let tangential = contact
+            .nodes
+            .iter()
+            .flat_map(|&node| (1..D).map(move |i| node * D + i))
+            .collect();
+        let mut operator = Self {
+            space,
+            law,
+            contact,
+            constrained,
+            constrained_cells,
+            prescribed: vec![0.0; size],
+            lifting_scale: 0.0,
+            pattern,
+            tabulation,
+            solver: CholeskySolver::analyse(
+                &SparseColMat::<usize, f64>::try_new_from_triplets(0, 0, &[]).map_err(|e| {
+                    Error::LinearAlgebra {
+                        context: "velocity operator".into(),
+                        message: format!("{e:?}"),
+                    }
+                })?,
+                "velocity operator",
+            )?,
+            matrix: SparseColMat::<usize, f64>::try_new_from_triplets(0, 0, &[]).map_err(|e| {
+                Error::LinearAlgebra {
+                    context: "velocity operator".into(),
+                    message: format!("{e:?}"),
+                }
+            })?,
+            tangential,
+            schur: Mat::zeros(0, 0),
+            trailing: None,
+            linearized_at: None,
+            implicit: None,
+            matrix_is_plain: true,
+        };
+        operator.matrix = operator.assemble(None)?;
+        // Elimination order of the nodes (the D unknowns of a node together, see
+        // `fill_reducing_node_order`), with the tangential contact unknowns moved to the end.
+        // Then the trailing
+        // block L_cc of the factor gives the condensed operator S = L_cc L_ccᵀ directly, without
+        // m solves. (Measured, 3D P1 N = 32: nested dissection 0.98e8 factor entries against
+        // 1.74e8 for AMD, 1.7× faster factorization; in 2D the two are within 15%.)
+        let space = &operator.space;
+        let graph = NodeGraph::from_cells(
+            space.num_nodes(),
+            (0..space.mesh().num_cells()).map(|c| space.cell_nodes(c)),
+        );
+        let node_order = fill_reducing_node_order(space.nodes(), &graph)?;
+        let mut is_tangential = vec![false; operator.pattern.size()];
+        for &dof in &operator.tangential {
+            is_tangential[dof] = true;
+        }
+        let ordering: Vec<usize> = node_order
+            .iter()
+            .flat_map(|&node| (0..D).map(move |i| node * D + i))
+            .filter(|&dof| !is_tangential[dof])
+            .chain(operator.tangential.iter().copied())
+            .collect();
+        operator.solver = CholeskySolver::analyse_with_ordering(
+            &operator.matrix,
+            &ordering,
+            "velocity operator (5.1)",
+        )?;
+        Ok(operator)
+    }
+}

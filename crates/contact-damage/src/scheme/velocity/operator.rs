@@ -1,0 +1,93 @@
+//! The velocity operator of (5.1) for one mesh, law and contact boundary: its fields and
+//! accessors. It is built in `construction`, assembled in `assembly`, factorized in
+//! `factorization` and solved with in `step`, `newton` and `condensation`.
+
+use super::types::ImplicitNormalCompliance;
+use crate::algebra::linalg::{CholeskySolver, SparsityPattern};
+use crate::fem::space::{LagrangeSpace, Tabulation};
+use crate::model::contact::ContactNodes;
+use crate::model::laws::Viscosity;
+use faer::sparse::SparseColMat;
+use faer::Mat;
+use std::sync::Arc;
+
+/// Linear algebra of the velocity step for one mesh, law and contact boundary: the assembly
+/// pattern (with frames and constrained rows), the Cholesky solver (symbolic analysis once) and
+/// the condensed Schur complement on the tangential contact unknowns.
+pub struct VelocityOperator<const D: usize> {
+    pub(super) space: Arc<LagrangeSpace<D>>,
+    pub(super) law: Arc<dyn Viscosity<D>>,
+    pub(super) contact: Arc<ContactNodes<D>>,
+    /// Constrained unknowns (Cartesian components of Γ1 nodes), node-major.
+    pub(super) constrained: Vec<bool>,
+    /// Cells with a constrained unknown (where the reactions and the lifting are assembled).
+    pub(super) constrained_cells: Vec<usize>,
+    /// Prescribed velocities of the current step on the constrained unknowns (zero elsewhere).
+    pub(super) prescribed: Vec<f64>,
+    /// max |(K p)_f| over the free unknowns of the current step (scale of the KKT residual).
+    pub(super) lifting_scale: f64,
+    pub(super) pattern: SparsityPattern,
+    pub(super) tabulation: Tabulation<D>,
+    pub(super) solver: CholeskySolver,
+    pub(super) matrix: SparseColMat<usize, f64>,
+    /// System indices of the tangential contact unknowns, (D−1) per contact node.
+    pub(super) tangential: Vec<usize>,
+    /// S = (E_cᵀ H^{-1} E_c)^{-1} for the current factorization.
+    pub(super) schur: Mat<f64>,
+    /// The trailing block of a supernodal factor whose last unknowns are the tangential ones
+    /// (then S = L_cc L_ccᵀ and a step needs one solve, [`Self::solve_model`]).
+    pub(super) trailing: Option<TrailingFactor>,
+    /// The velocity at which H was last assembled (nonlinear 𝒜).
+    pub(super) linearized_at: Option<Vec<f64>>,
+    /// The implicit normal compliance of the current step, if any.
+    pub(super) implicit: Option<ImplicitNormalCompliance>,
+    /// True while `matrix` is the plain viscous operator (false after a Newton tangent).
+    pub(super) matrix_is_plain: bool,
+}
+
+/// The trailing block L_cc of the velocity factor when the tangential contact unknowns are
+/// eliminated last (elimination order), and the position in `tangential` of each of its
+/// unknowns.
+#[derive(Debug, Clone)]
+pub(super) struct TrailingFactor {
+    pub(super) factor: Mat<f64>,
+    pub(super) index: Vec<usize>,
+}
+
+impl<const D: usize> VelocityOperator<D> {
+    /// The Cholesky solver of the operator (its factor once a step has been solved); for
+    /// benchmarks of the triangular solves.
+    pub fn solver(&self) -> &CholeskySolver {
+        &self.solver
+    }
+
+    /// The matrix of the held factor: H, or the Newton tangent of the last nonlinear step.
+    pub fn factored_matrix(&self) -> &SparseColMat<usize, f64> {
+        &self.matrix
+    }
+
+    /// The finite element space.
+    pub fn space(&self) -> &Arc<LagrangeSpace<D>> {
+        &self.space
+    }
+
+    /// The contact nodes.
+    pub fn contact(&self) -> &Arc<ContactNodes<D>> {
+        &self.contact
+    }
+
+    /// Number of unknowns (including constrained ones, which carry identity rows).
+    pub fn size(&self) -> usize {
+        self.pattern.size()
+    }
+
+    /// Number of stored nonzeros of the operator.
+    pub fn nnz(&self) -> usize {
+        self.pattern.nnz()
+    }
+
+    /// The constrained unknowns (Cartesian components, node-major).
+    pub fn constrained(&self) -> &[bool] {
+        &self.constrained
+    }
+}

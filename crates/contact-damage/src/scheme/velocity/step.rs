@@ -1,0 +1,196 @@
+//! One velocity step (5.1): the data are checked, the prescribed velocities on Γ1 lifted, the
+//! load F formed in the system frame, the step solved (linear or nonlinear 𝒜) and the contact
+//! status and reactions of the solution computed.
+
+use super::operator::VelocityOperator;
+use super::types::{VelocityData, VelocitySettings, VelocitySolution};
+use crate::algebra::linalg::max_abs;
+use crate::error::{Error, Result};
+use crate::model::contact::ContactStatus;
+
+impl<const D: usize> VelocityOperator<D> {
+    /// Solves the velocity step (5.1) for the given data; `start` (Cartesian) is the initial
+    /// guess of the outer Newton iteration (ignored for a linear 𝒜).
+    pub fn solve(
+        &mut self,
+        data: &VelocityData<'_>,
+        start: &[f64],
+        settings: &VelocitySettings,
+    ) -> Result<VelocitySolution> {
+        self.check_data(data)?;
+        self.set_prescribed(data)?;
+        // the force of the prescribed velocities on the free unknowns, K_fc p_c (linear 𝒜: its
+        // lifting; nonlinear: its first-order part), in the system frame
+        let lifting = if self.prescribed.iter().any(|&p| p != 0.0) {
+            Some(self.to_system(&self.constrained_cell_force(&self.prescribed)))
+        } else {
+            None
+        };
+        self.lifting_scale = lifting.as_ref().map_or(0.0, |l| max_abs(l));
+        // F in the system frame, with the explicit normal compliance load −ω_a p_ν on the
+        // normal unknown (the implicit one is part of N(v) instead).
+        let mut load = self.to_system(data.load);
+        if data.implicit_contact.is_none() {
+            for (k, &node) in self.contact.nodes.iter().enumerate() {
+                load[node * D] -= self.contact.weights[k] * data.normal_pressure[k];
+            }
+        }
+        let weights = self.friction_weights(data.friction_bound);
+        self.implicit.clone_from(&data.implicit_contact);
+        if self.implicit.is_some() {
+            // the tangent depends on the step's penetrations, not only on v
+            self.linearized_at = None;
+        }
+        let (velocity, multipliers, stats) = if self.law.is_linear() && self.implicit.is_none() {
+            // eliminate the prescribed velocities: F_f − K_fc p_c on the free rows, p_c on the
+            // constrained (identity) rows
+            if let Some(lifting) = &lifting {
+                for ((f, l), &c) in load.iter_mut().zip(lifting).zip(&self.constrained) {
+                    if !c {
+                        *f -= l;
+                    }
+                }
+            }
+            for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
+                load[dof] = self.prescribed[dof];
+            }
+            self.solve_linear(&load, &weights, start, settings)?
+        } else {
+            self.solve_nonlinear(&load, &weights, start, settings)?
+        };
+        let status = self.contact_status(data, &weights, &velocity);
+        let velocity = self.to_cartesian(&velocity);
+        let reaction = self.reactions(data.load, &velocity);
+        Ok(VelocitySolution {
+            velocity,
+            multipliers,
+            status,
+            reaction,
+            stats,
+        })
+    }
+
+    /// The sizes and values of the data of a step: finite loads, pressures and friction
+    /// bounds ≥ 0, and the implicit normal compliance's penetrations and time step.
+    fn check_data(&self, data: &VelocityData<'_>) -> Result<()> {
+        let k_count = self.contact.len();
+        let size = self.size();
+        if data.load.len() != size
+            || data.normal_pressure.len() != k_count
+            || data.friction_bound.len() != k_count
+        {
+            return Err(Error::InvalidInput(format!(
+                "velocity step data sizes: load {} (expected {size}), normal pressure {} and friction bound {} (expected {k_count})",
+                data.load.len(),
+                data.normal_pressure.len(),
+                data.friction_bound.len()
+            )));
+        }
+        if let Some(i) = data.load.iter().position(|v| !v.is_finite()) {
+            return Err(Error::NonFinite(format!(
+                "velocity step load vector at dof {i} (node {}, component {})",
+                i / D,
+                i % D
+            )));
+        }
+        for (name, values) in [
+            ("normal pressure", data.normal_pressure),
+            ("friction bound", data.friction_bound),
+        ] {
+            if let Some(k) = values.iter().position(|v| !v.is_finite() || *v < 0.0) {
+                return Err(Error::NonFinite(format!(
+                    "{name} {} at contact node {} ({:?}) must be finite and ≥ 0",
+                    values[k],
+                    self.contact.nodes[k],
+                    self.space.node(self.contact.nodes[k])
+                )));
+            }
+        }
+        if let Some(implicit) = &data.implicit_contact {
+            if implicit.previous_penetration.len() != k_count {
+                return Err(Error::InvalidInput(format!(
+                    "implicit normal compliance: {} penetrations for {k_count} contact nodes",
+                    implicit.previous_penetration.len()
+                )));
+            }
+            if !(implicit.time_step.is_finite() && implicit.time_step > 0.0) {
+                return Err(Error::parameter(
+                    "time_step",
+                    implicit.time_step,
+                    "the implicit normal compliance needs a finite time step k > 0",
+                ));
+            }
+            if let Some(k) = implicit
+                .previous_penetration
+                .iter()
+                .position(|r| !r.is_finite())
+            {
+                return Err(Error::NonFinite(format!(
+                    "penetration u_ν − g = {} at contact node {} ({:?})",
+                    implicit.previous_penetration[k],
+                    self.contact.nodes[k],
+                    self.space.node(self.contact.nodes[k])
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Takes the prescribed velocities of the step on the constrained unknowns (zero when the
+    /// data has none), checking their number and finiteness.
+    fn set_prescribed(&mut self, data: &VelocityData<'_>) -> Result<()> {
+        let size = self.size();
+        self.prescribed.fill(0.0);
+        if let Some(prescribed) = data.prescribed {
+            if prescribed.len() != size {
+                return Err(Error::InvalidInput(format!(
+                    "velocity step: {} prescribed velocities for {size} unknowns",
+                    prescribed.len()
+                )));
+            }
+            for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
+                if !prescribed[dof].is_finite() {
+                    return Err(Error::NonFinite(format!(
+                        "prescribed velocity {} at node {} ({:?}), component {}",
+                        prescribed[dof],
+                        dof / D,
+                        self.space.node(dof / D),
+                        dof % D
+                    )));
+                }
+                self.prescribed[dof] = prescribed[dof];
+            }
+        }
+        Ok(())
+    }
+
+    /// The status of each contact node at the solution (system frame): separated where the
+    /// normal pressure vanishes, stick where a node with friction does not slide, slip otherwise.
+    fn contact_status(
+        &self,
+        data: &VelocityData<'_>,
+        weights: &[f64],
+        velocity: &[f64],
+    ) -> Vec<ContactStatus> {
+        self.contact
+            .nodes
+            .iter()
+            .enumerate()
+            .map(|(k, &node)| {
+                let pressure = match &self.implicit {
+                    Some(implicit) => implicit
+                        .law
+                        .normal_pressure(implicit.penetration(k, velocity[node * D])),
+                    None => data.normal_pressure[k],
+                };
+                if pressure <= 0.0 {
+                    ContactStatus::Separated
+                } else if weights[k] > 0.0 && (1..D).all(|i| velocity[node * D + i] == 0.0) {
+                    ContactStatus::Stick
+                } else {
+                    ContactStatus::Slip
+                }
+            })
+            .collect()
+    }
+}
