@@ -465,56 +465,12 @@ pub fn contact_history_svg(
             path.display()
         )));
     }
-    // records grouped by step (rows of one step are consecutive, in the order of s)
-    let mut steps: Vec<&[ContactRecord]> = records
-        .chunk_by(|a, b| a.step == b.step)
-        .collect::<Vec<_>>();
-    steps.sort_by_key(|rows| rows[0].step);
-    let coordinates: Vec<f64> = steps[0].iter().map(|r| r.coordinate).collect();
-    if let Some(rows) = steps.iter().find(|rows| {
-        rows.len() != coordinates.len()
-            || rows
-                .iter()
-                .zip(&coordinates)
-                .any(|(r, s)| r.coordinate != *s)
-    }) {
-        return Err(InputError::InvalidInput(format!(
-            "{}: step {} has other contact nodes than step {}",
-            path.display(),
-            rows[0].step,
-            steps[0][0].step
-        )));
-    }
-    // cell of node j along s: halfway to its neighbours
+    let (steps, coordinates) = records_by_step(path, records)?;
     let count = coordinates.len();
-    let edge = |j: usize| -> f64 {
-        if j == 0 {
-            coordinates[0]
-        } else if j == count {
-            coordinates[count - 1]
-        } else {
-            0.5 * (coordinates[j - 1] + coordinates[j])
-        }
-    };
-    // time interval of step i: (t_{i-1}, t_i]
-    let start_time = |i: usize| if i == 0 { 0.0 } else { steps[i - 1][0].time };
     let last_time = steps[steps.len() - 1][0].time;
-    let mut rectangles: [Vec<[(f64, f64); 2]>; 3] = Default::default();
-    for j in 0..count {
-        // runs of equal status in time, one rectangle each
-        let mut begin = 0;
-        for i in 1..=steps.len() {
-            if i == steps.len() || steps[i][j].status != steps[begin][j].status {
-                rectangles[steps[begin][j].status].push([
-                    (edge(j), start_time(begin)),
-                    (edge(j + 1), steps[i - 1][0].time),
-                ]);
-                begin = i;
-            }
-        }
-    }
+    let rectangles = status_rectangles(&steps, &coordinates);
     let (s_low, s_high) = (coordinates[0], coordinates[count - 1]);
-    let (s_low, s_high) = if s_high > s_low {
+    let s_range = if s_high > s_low {
         (s_low, s_high)
     } else {
         (s_low - 1.0, s_high + 1.0)
@@ -544,37 +500,8 @@ pub fn contact_history_svg(
         root.fill(&WHITE).map_err(|e| error(&e))?;
         let (top, rest) = root.split_vertically(520);
         let (middle, bottom) = rest.split_vertically(365);
-        let mut map = ChartBuilder::on(&top)
-            .caption("contact status on Γ3 over time", ("sans-serif", 20))
-            .margin(10)
-            .margin_right(130)
-            .x_label_area_size(40)
-            .y_label_area_size(55)
-            .build_cartesian_2d(s_low..s_high, 0.0..last_time)
+        draw_status_map(&top, &rectangles, s_range, last_time, coordinate_label)
             .map_err(|e| error(&e))?;
-        map.configure_mesh()
-            .disable_mesh()
-            .x_desc(coordinate_label)
-            .y_desc("t")
-            .label_style(("sans-serif", 14))
-            .axis_desc_style(("sans-serif", 16))
-            .draw()
-            .map_err(|e| error(&e))?;
-        for (status, cells) in rectangles.iter().enumerate() {
-            let color = STATUS_COLORS[status];
-            map.draw_series(
-                cells
-                    .iter()
-                    .map(|&corners| Rectangle::new(corners, color.filled())),
-            )
-            .map_err(|e| error(&e))?;
-        }
-        let entries: Vec<(String, RGBAColor, bool)> = STATUS_LABELS
-            .iter()
-            .zip(STATUS_COLORS)
-            .map(|(label, color)| (label.to_string(), color.to_rgba(), true))
-            .collect();
-        draw_legend(&top, &entries).map_err(|e| error(&e))?;
 
         let entries: Vec<(String, RGBAColor, bool)> = curves
             .iter()
@@ -603,41 +530,158 @@ pub fn contact_history_svg(
                 |r| r.accumulated_slip,
             ),
         ];
-        for (area, caption, label, high, value) in panels {
-            let mut lines = ChartBuilder::on(area)
-                .caption(caption, ("sans-serif", 20))
-                .margin(10)
-                .margin_right(130)
-                .x_label_area_size(40)
-                .y_label_area_size(55)
-                .build_cartesian_2d(s_low..s_high, 0.0..high)
+        for panel in panels {
+            draw_curve_panel(panel, &curves, &entries, s_range, coordinate_label)
                 .map_err(|e| error(&e))?;
-            lines
-                .configure_mesh()
-                .x_desc(coordinate_label)
-                .y_desc(label)
-                .label_style(("sans-serif", 14))
-                .axis_desc_style(("sans-serif", 16))
-                .light_line_style(WHITE)
-                .draw()
-                .map_err(|e| error(&e))?;
-            for (index, rows) in curves.iter().enumerate() {
-                let color = Palette99::pick(index).to_rgba();
-                lines
-                    .draw_series(
-                        LineSeries::new(
-                            rows.iter().map(|r| (r.coordinate, value(r))),
-                            color.stroke_width(2),
-                        )
-                        .point_size(2),
-                    )
-                    .map_err(|e| error(&e))?;
-            }
-            draw_legend(area, &entries).map_err(|e| error(&e))?;
         }
         root.present().map_err(|e| error(&e))?;
     }
     write_atomic(path, svg.as_bytes())
+}
+
+/// The records grouped by step, in step order (the rows of one step are consecutive, in the
+/// order of s), and the coordinates s of the first step, which every step must have.
+fn records_by_step<'r>(
+    path: &Path,
+    records: &'r [ContactRecord],
+) -> Result<(Vec<&'r [ContactRecord]>, Vec<f64>), InputError> {
+    let mut steps: Vec<&[ContactRecord]> = records
+        .chunk_by(|a, b| a.step == b.step)
+        .collect::<Vec<_>>();
+    steps.sort_by_key(|rows| rows[0].step);
+    let coordinates: Vec<f64> = steps[0].iter().map(|r| r.coordinate).collect();
+    if let Some(rows) = steps.iter().find(|rows| {
+        rows.len() != coordinates.len()
+            || rows
+                .iter()
+                .zip(&coordinates)
+                .any(|(r, s)| r.coordinate != *s)
+    }) {
+        return Err(InputError::InvalidInput(format!(
+            "{}: step {} has other contact nodes than step {}",
+            path.display(),
+            rows[0].step,
+            steps[0][0].step
+        )));
+    }
+    Ok((steps, coordinates))
+}
+
+/// The space–time rectangles of each contact status (0, 1, 2): node j along s covers the cell
+/// halfway to its neighbours, step i the time interval (t_{i−1}, t_i], and a run of steps of
+/// equal status at a node is one rectangle.
+fn status_rectangles(steps: &[&[ContactRecord]], coordinates: &[f64]) -> [Vec<[(f64, f64); 2]>; 3] {
+    // cell of node j along s: halfway to its neighbours
+    let count = coordinates.len();
+    let edge = |j: usize| -> f64 {
+        if j == 0 {
+            coordinates[0]
+        } else if j == count {
+            coordinates[count - 1]
+        } else {
+            0.5 * (coordinates[j - 1] + coordinates[j])
+        }
+    };
+    // time interval of step i: (t_{i-1}, t_i]
+    let start_time = |i: usize| if i == 0 { 0.0 } else { steps[i - 1][0].time };
+    let mut rectangles: [Vec<[(f64, f64); 2]>; 3] = Default::default();
+    for j in 0..count {
+        // runs of equal status in time, one rectangle each
+        let mut begin = 0;
+        for i in 1..=steps.len() {
+            if i == steps.len() || steps[i][j].status != steps[begin][j].status {
+                rectangles[steps[begin][j].status].push([
+                    (edge(j), start_time(begin)),
+                    (edge(j + 1), steps[i - 1][0].time),
+                ]);
+                begin = i;
+            }
+        }
+    }
+    rectangles
+}
+
+/// The space–time map of the contact status in `area`: s in `s_range` across, t in
+/// [0, `last_time`] up, the `rectangles` of each status in its colour, with the legend.
+fn draw_status_map(
+    area: &DrawingArea<SVGBackend<'_>, plotters::coord::Shift>,
+    rectangles: &[Vec<[(f64, f64); 2]>; 3],
+    (s_low, s_high): (f64, f64),
+    last_time: f64,
+    coordinate_label: &str,
+) -> Result<(), String> {
+    let mut map = ChartBuilder::on(area)
+        .caption("contact status on Γ3 over time", ("sans-serif", 20))
+        .margin(10)
+        .margin_right(130)
+        .x_label_area_size(40)
+        .y_label_area_size(55)
+        .build_cartesian_2d(s_low..s_high, 0.0..last_time)
+        .map_err(|e| e.to_string())?;
+    map.configure_mesh()
+        .disable_mesh()
+        .x_desc(coordinate_label)
+        .y_desc("t")
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .draw()
+        .map_err(|e| e.to_string())?;
+    for (status, cells) in rectangles.iter().enumerate() {
+        let color = STATUS_COLORS[status];
+        map.draw_series(
+            cells
+                .iter()
+                .map(|&corners| Rectangle::new(corners, color.filled())),
+        )
+        .map_err(|e| e.to_string())?;
+    }
+    let entries: Vec<(String, RGBAColor, bool)> = STATUS_LABELS
+        .iter()
+        .zip(STATUS_COLORS)
+        .map(|(label, color)| (label.to_string(), color.to_rgba(), true))
+        .collect();
+    draw_legend(area, &entries)
+}
+
+/// One panel of curves along Γ3: the value of the panel at the steps of `curves`, one colour
+/// each, over s in `s_range`, with the legend `entries`.
+fn draw_curve_panel(
+    (area, caption, label, high, value): CurvePanel<'_, '_>,
+    curves: &[&[ContactRecord]],
+    entries: &[(String, RGBAColor, bool)],
+    (s_low, s_high): (f64, f64),
+    coordinate_label: &str,
+) -> Result<(), String> {
+    let mut lines = ChartBuilder::on(area)
+        .caption(caption, ("sans-serif", 20))
+        .margin(10)
+        .margin_right(130)
+        .x_label_area_size(40)
+        .y_label_area_size(55)
+        .build_cartesian_2d(s_low..s_high, 0.0..high)
+        .map_err(|e| e.to_string())?;
+    lines
+        .configure_mesh()
+        .x_desc(coordinate_label)
+        .y_desc(label)
+        .label_style(("sans-serif", 14))
+        .axis_desc_style(("sans-serif", 16))
+        .light_line_style(WHITE)
+        .draw()
+        .map_err(|e| e.to_string())?;
+    for (index, rows) in curves.iter().enumerate() {
+        let color = Palette99::pick(index).to_rgba();
+        lines
+            .draw_series(
+                LineSeries::new(
+                    rows.iter().map(|r| (r.coordinate, value(r))),
+                    color.stroke_width(2),
+                )
+                .point_size(2),
+            )
+            .map_err(|e| e.to_string())?;
+    }
+    draw_legend(area, entries)
 }
 
 /// A panel of curves along Γ3: area, caption, axis label, upper end of the axis, value.

@@ -25,7 +25,7 @@
 
 use crate::folder;
 use crate::history::{
-    history_header, truncate_history, DomainQuadrature, ForceCycle, RunningSums,
+    history_header, truncate_history, DomainQuadrature, ForceCycle, HistoryRow, RunningSums,
     CYCLE_WINDOW_STEPS, HISTORY_FILE,
 };
 use crate::pictures::{
@@ -39,12 +39,14 @@ use crate::resume::resume;
 pub use crate::resume::{read_saved_state, SavedState};
 pub use crate::snapshot::{cell_stress, contact_file, solution_file};
 use crate::snapshot::{save_step, SavedStep};
+use contact_damage::fem::space::LagrangeSpace;
 use contact_damage::io::vtk::VtuGrid;
+use contact_damage::model::contact::ContactNodes;
 use contact_damage::scheme::stability::StepLimit;
-use contact_damage::scheme::{DamageEvolution, Simulation, StepOutcome};
+use contact_damage::scheme::{DamageEvolution, Simulation, State, StepOutcome};
 use contact_input::output::write_atomic;
 use contact_input::InputError;
-use std::fs::OpenOptions;
+use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -178,6 +180,37 @@ pub fn run<const D: usize>(
     setup: &ProblemSetup<D>,
     options: &RunOptions,
 ) -> Result<RunOutcome, InputError> {
+    let dir = output_folder(setup, options)?;
+    check_memory(
+        &setup.origin,
+        contact_damage::algebra::memory::estimate(
+            D,
+            setup.problem.degree,
+            setup.problem.mesh.num_vertices() as f64,
+        ),
+        options,
+    )?;
+    let mut simulation = Simulation::new(setup.problem.clone())?;
+    let (mut time_loop, mut progress) = StepLoop::prepare(setup, options, &mut simulation, dir)?;
+    time_loop.print_start(&simulation);
+    while simulation.state().step < time_loop.last_step {
+        let outcome = simulation
+            .step()
+            .map_err(|error| setup.load_watch.explain(&setup.origin, error.into()))?;
+        time_loop.after_step(&simulation, &outcome, &mut progress)?;
+        if progress.interrupted {
+            break;
+        }
+    }
+    time_loop.finish(&simulation, progress)
+}
+
+/// The output folder of a run (`--out`, or `output.dir` of the problem): a fresh run checks
+/// that it may start there, before anything is computed or written (see [`crate::folder`]).
+fn output_folder<const D: usize>(
+    setup: &ProblemSetup<D>,
+    options: &RunOptions,
+) -> Result<PathBuf, InputError> {
     let dir = options
         .out
         .clone()
@@ -191,78 +224,191 @@ pub fn run<const D: usize>(
         // before anything is computed or written (see crate::folder)
         folder::check_fresh(&dir, &what, options.overwrite)?;
     }
-    check_memory(
-        &setup.origin,
-        contact_damage::algebra::memory::estimate(
-            D,
-            setup.problem.degree,
-            setup.problem.mesh.num_vertices() as f64,
-        ),
-        options,
-    )?;
-    let mut simulation = Simulation::new(setup.problem.clone())?;
-    let space = simulation.space().clone();
-    let contact = simulation.contact().clone();
-    let steps = simulation.steps();
-    let history_path = dir.join(HISTORY_FILE);
-    let contact_history_path = dir.join(CONTACT_HISTORY_FILE);
-    let contact_line = ContactLine::new(&space, &contact);
-    let pictures = picture_steps(&setup.pictures, simulation.time_step(), steps);
+    Ok(dir)
+}
 
+/// The output folder and the two files of a run appended at every step.
+struct OutputFiles {
+    /// The output folder.
+    dir: PathBuf,
+    /// Its `history.csv`.
+    history: PathBuf,
+    /// Its `contact_history.csv`.
+    contact_history: PathBuf,
+}
+
+/// What a run gathers step by step, from its start (or the resumed step) to its outcome.
+struct Progress {
+    /// Steps saved so far (over all runs in the folder).
+    saved_steps: Vec<usize>,
+    /// The running sums of the history.
+    sums: RunningSums,
+    /// Largest KKT residuals of the steps done by this run.
+    max_kkt: MaxKkt,
+    /// The watch over a total normal force that cycles with period two.
+    force_cycle: ForceCycle,
+    /// The run is to stop after the step just done ([`RunOptions::interrupt`]).
+    interrupted: bool,
+}
+
+/// Prepares the output folder before the first step. Resuming: the state of `state.json` is
+/// set in `simulation`, the step limit checked, and both CSV files truncated to the resumed
+/// step. Fresh: the step limit checked, the folder created (emptied of our files with
+/// `--overwrite`), and both CSV files started with their headers.
+fn prepare_folder<const D: usize>(
+    setup: &ProblemSetup<D>,
+    options: &RunOptions,
+    simulation: &mut Simulation<D>,
+    files: &OutputFiles,
+    contact_line: &ContactLine,
+) -> Result<(Progress, StepLimit), InputError> {
+    let contact_nodes = simulation.contact().len();
+    let steps = simulation.steps();
     let mut saved_steps = Vec::new();
-    let mut sums = RunningSums::new(contact.len());
+    let mut sums = RunningSums::new(contact_nodes);
     let header = history_header(simulation.dirichlet_parts(), D);
     let step_limit;
     if options.resume {
-        let resumed = resume(setup, &mut simulation, &dir, contact.len())?;
+        let resumed = resume(setup, simulation, &files.dir, contact_nodes)?;
         saved_steps = resumed.saved_steps;
         sums = resumed.sums;
-        step_limit = check_step_limit(setup, &mut simulation)?;
-        truncate_history(&history_path, resumed.step, &header)?;
+        step_limit = check_step_limit(setup, simulation)?;
+        truncate_history(&files.history, resumed.step, &header)?;
         let recorded: Vec<usize> = (1..=resumed.step)
             .filter(|&n| records_contact_history(n, setup.every, steps))
             .collect();
-        truncate_contact_history(&contact_history_path, &recorded, contact_line.indices.len())?;
+        truncate_contact_history(
+            &files.contact_history,
+            &recorded,
+            contact_line.indices.len(),
+        )?;
     } else {
-        step_limit = check_step_limit(setup, &mut simulation)?;
-        std::fs::create_dir_all(&dir).map_err(io_error("creating directory", &dir))?;
+        step_limit = check_step_limit(setup, simulation)?;
+        let dir = &files.dir;
+        std::fs::create_dir_all(dir).map_err(io_error("creating directory", dir))?;
         if options.overwrite {
-            folder::remove_output(&dir)?;
+            folder::remove_output(dir)?;
         }
-        write_atomic(&history_path, format!("{header}\n").as_bytes())?;
+        write_atomic(&files.history, format!("{header}\n").as_bytes())?;
         write_atomic(
-            &contact_history_path,
+            &files.contact_history,
             format!("{CONTACT_HISTORY_HEADER}\n").as_bytes(),
         )?;
     }
-    let started_from = simulation.state().step;
-    let mut history = OpenOptions::new()
-        .append(true)
-        .open(&history_path)
-        .map_err(io_error("opening", &history_path))?;
-    let mut contact_history = OpenOptions::new()
-        .append(true)
-        .open(&contact_history_path)
-        .map_err(io_error("opening", &contact_history_path))?;
+    let progress = Progress {
+        saved_steps,
+        sums,
+        max_kkt: MaxKkt::default(),
+        force_cycle: ForceCycle::default(),
+        interrupted: false,
+    };
+    Ok((progress, step_limit))
+}
 
-    let quadrature = DomainQuadrature::new(&space, 2 * space.degree());
-    let grid = VtuGrid::new(&space, setup.vtu)?;
-    let last_step = options.until_step.unwrap_or(steps).min(steps);
-    let clock = Instant::now();
-    let mut max_kkt = MaxKkt::default();
-    let mut force_cycle = ForceCycle::default();
-    let damage_evolves = setup.problem.settings.damage_evolution == DamageEvolution::Parabolic;
-    let mut interrupted = false;
-    if !options.quiet {
+/// Opens `path` for appending.
+fn open_append(path: &Path) -> Result<File, InputError> {
+    OpenOptions::new()
+        .append(true)
+        .open(path)
+        .map_err(io_error("opening", path))
+}
+
+/// The time loop of a run: what its steps share, fixed before the first one.
+struct StepLoop<'a, const D: usize> {
+    setup: &'a ProblemSetup<D>,
+    options: &'a RunOptions,
+    files: OutputFiles,
+    space: Arc<LagrangeSpace<D>>,
+    contact: Arc<ContactNodes<D>>,
+    /// N.
+    steps: usize,
+    /// The contact nodes of `contact_history.csv`.
+    contact_line: ContactLine,
+    /// The steps of the damage pictures.
+    pictures: Vec<usize>,
+    step_limit: StepLimit,
+    /// The step the run starts after (0, or the resumed step).
+    started_from: usize,
+    /// `history.csv`, open for appending.
+    history: File,
+    /// `contact_history.csv`, open for appending.
+    contact_history: File,
+    /// The cell rule of the Ω integrals of the history.
+    quadrature: DomainQuadrature<D>,
+    grid: VtuGrid,
+    /// The last step of this run (`--until-step`, or N).
+    last_step: usize,
+    damage_evolves: bool,
+    /// Started before the first step.
+    clock: Instant,
+}
+
+impl<'a, const D: usize> StepLoop<'a, D> {
+    /// Sets up the run of `simulation` in the folder `dir`: the output folder prepared
+    /// ([`prepare_folder`]), the CSV files opened for appending, and what the steps share.
+    fn prepare(
+        setup: &'a ProblemSetup<D>,
+        options: &'a RunOptions,
+        simulation: &mut Simulation<D>,
+        dir: PathBuf,
+    ) -> Result<(Self, Progress), InputError> {
+        let space = simulation.space().clone();
+        let contact = simulation.contact().clone();
+        let steps = simulation.steps();
+        let files = OutputFiles {
+            history: dir.join(HISTORY_FILE),
+            contact_history: dir.join(CONTACT_HISTORY_FILE),
+            dir,
+        };
+        let contact_line = ContactLine::new(&space, &contact);
+        let pictures = picture_steps(&setup.pictures, simulation.time_step(), steps);
+        let (progress, step_limit) =
+            prepare_folder(setup, options, simulation, &files, &contact_line)?;
+        let started_from = simulation.state().step;
+        let history = open_append(&files.history)?;
+        let contact_history = open_append(&files.contact_history)?;
+        let quadrature = DomainQuadrature::new(&space, 2 * space.degree());
+        let grid = VtuGrid::new(&space, setup.vtu)?;
+        let last_step = options.until_step.unwrap_or(steps).min(steps);
+        let clock = Instant::now();
+        let damage_evolves = setup.problem.settings.damage_evolution == DamageEvolution::Parabolic;
+        let time_loop = Self {
+            setup,
+            options,
+            files,
+            space,
+            contact,
+            steps,
+            contact_line,
+            pictures,
+            step_limit,
+            started_from,
+            history,
+            contact_history,
+            quadrature,
+            grid,
+            last_step,
+            damage_evolves,
+            clock,
+        };
+        Ok((time_loop, progress))
+    }
+
+    /// The first progress line: the problem, its size, N, k and the stability limit.
+    fn print_start(&self, simulation: &Simulation<D>) {
+        if self.options.quiet {
+            return;
+        }
+        let (space, steps, started_from) = (&self.space, self.steps, self.started_from);
         println!(
             "{}: d = {D}, l = {}, {} cells, {} nodes, {} contact nodes, N = {steps}, k = {:e} (stability limit {:.3e}){}",
-            setup.name,
+            self.setup.name,
             space.degree(),
             space.mesh().num_cells(),
             space.num_nodes(),
-            contact.len(),
+            self.contact.len(),
             simulation.time_step(),
-            step_limit.time_step,
+            self.step_limit.time_step,
             if started_from > 0 {
                 format!(", resuming after step {started_from}")
             } else {
@@ -270,138 +416,171 @@ pub fn run<const D: usize>(
             }
         );
     }
-    while simulation.state().step < last_step {
-        let outcome = simulation
-            .step()
-            .map_err(|error| setup.load_watch.explain(&setup.origin, error.into()))?;
+
+    /// What follows the step just done by `simulation` with `outcome`: its row of
+    /// `history.csv`, the cycle check of the normal force, the damage picture, the rows of
+    /// `contact_history.csv`, and the saved step (every `output.every` steps, at the last step,
+    /// and when interrupted).
+    fn after_step(
+        &mut self,
+        simulation: &Simulation<D>,
+        outcome: &StepOutcome,
+        progress: &mut Progress,
+    ) -> Result<(), InputError> {
         let StepRecord { row, speed } = record_step(
-            setup,
-            &simulation,
-            &outcome,
-            &quadrature,
-            contact_line.axis,
-            &mut sums,
+            self.setup,
+            simulation,
+            outcome,
+            &self.quadrature,
+            self.contact_line.axis,
+            &mut progress.sums,
         );
         let StepOutcome {
             velocity,
             damage,
             normal_pressure,
             friction_bound,
-        } = &outcome;
+        } = outcome;
         let state = simulation.state();
         let n = state.step;
-        max_kkt.velocity = max_kkt.velocity.max(velocity.stats.kkt_residual);
-        max_kkt.damage = max_kkt.damage.max(damage.stats.kkt_residual);
-        if let Some((low, high)) = force_cycle.push(row.normal_force) {
-            return Err(InputError::InvalidInput(format!(
-                "{}: the total normal contact force cycles with period two between {low:.6e} and {high:.6e} over steps {}..={n}, although every step is solved exactly: the step k = {:e} is above the stability limit of the explicit normal compliance for the contact state reached (the estimate at the start was {:.3e}); raise `steps` or use `[scheme] contact = \"implicit\"`",
-                setup.origin,
-                n + 1 - CYCLE_WINDOW_STEPS,
-                simulation.time_step(),
-                step_limit.time_step,
-            )));
+        progress.max_kkt.velocity = progress.max_kkt.velocity.max(velocity.stats.kkt_residual);
+        progress.max_kkt.damage = progress.max_kkt.damage.max(damage.stats.kkt_residual);
+        if let Some((low, high)) = progress.force_cycle.push(row.normal_force) {
+            return Err(self.force_cycle_error(low, high, n, simulation.time_step()));
         }
-        history
+        let history_path = &self.files.history;
+        self.history
             .write_all(row.csv_line().as_bytes())
-            .and_then(|()| history.flush())
-            .map_err(io_error("appending to", &history_path))?;
-        if damage_evolves && pictures.contains(&n) {
+            .and_then(|()| self.history.flush())
+            .map_err(io_error("appending to", history_path))?;
+        if self.damage_evolves && self.pictures.contains(&n) {
             damage_svg(
-                &dir.join(damage_picture_file(n)),
-                &space,
+                &self.files.dir.join(damage_picture_file(n)),
+                &self.space,
                 &state.damage,
                 n,
                 state.time,
             )?;
         }
 
-        if records_contact_history(n, setup.every, steps) {
-            contact_history
-                .write_all(
-                    contact_line
-                        .csv_rows(
-                            n,
-                            state.time,
-                            &velocity.status,
-                            normal_pressure,
-                            &speed,
-                            &sums.accumulated_slip,
-                        )
-                        .as_bytes(),
-                )
-                .and_then(|()| contact_history.flush())
-                .map_err(io_error("appending to", &contact_history_path))?;
+        if records_contact_history(n, self.setup.every, self.steps) {
+            let rows = self.contact_line.csv_rows(
+                n,
+                state.time,
+                &velocity.status,
+                normal_pressure,
+                &speed,
+                &progress.sums.accumulated_slip,
+            );
+            let contact_history_path = &self.files.contact_history;
+            self.contact_history
+                .write_all(rows.as_bytes())
+                .and_then(|()| self.contact_history.flush())
+                .map_err(io_error("appending to", contact_history_path))?;
         }
-        interrupted = options
+        progress.interrupted = self
+            .options
             .interrupt
             .as_ref()
             .is_some_and(|flag| flag.load(Ordering::SeqCst));
-        if n % setup.every == 0 || n == steps || n == last_step || interrupted {
+        if n % self.setup.every == 0
+            || n == self.steps
+            || n == self.last_step
+            || progress.interrupted
+        {
             save_step(
-                &dir,
+                &self.files.dir,
                 &SavedStep {
-                    setup,
-                    space: &space,
-                    grid: &grid,
-                    contact: &contact,
+                    setup: self.setup,
+                    space: &self.space,
+                    grid: &self.grid,
+                    contact: &self.contact,
                     state,
                     velocity,
                     normal_pressure,
                     friction_bound,
-                    sums: &sums,
-                    steps,
+                    sums: &progress.sums,
+                    steps: self.steps,
                     time_step: simulation.time_step(),
                 },
-                &mut saved_steps,
+                &mut progress.saved_steps,
             )?;
-            if !options.quiet {
-                let elapsed = clock.elapsed().as_secs_f64();
-                let done = n - started_from;
-                let left = elapsed / done as f64 * (last_step - n) as f64;
-                println!(
-                    "step {n:>6}/{steps}  t = {:<10.4e} Newton {:>2}  friction {:>3}  damage {:>3}  KKT {:.1e}/{:.1e}  contact {}/{}/{} (sep/stick/slip)  β̄ = {:.4}  {elapsed:.1} s, ≈ {left:.1} s left",
-                    state.time,
-                    row.newton_iterations,
-                    row.friction_iterations,
-                    row.damage_iterations,
-                    row.velocity_kkt,
-                    row.damage_kkt,
-                    row.separated,
-                    row.stick,
-                    row.slip,
-                    row.mean_damage,
-                );
-            }
+            self.print_saved_step(state, &row);
         }
-        if interrupted {
-            if !options.quiet {
-                println!("interrupted: step {n} is saved; continue with --resume",);
-            }
-            break;
+        if progress.interrupted && !self.options.quiet {
+            println!("interrupted: step {n} is saved; continue with --resume",);
         }
+        Ok(())
     }
-    history
-        .sync_all()
-        .map_err(io_error("syncing", &history_path))?;
-    contact_history
-        .sync_all()
-        .map_err(io_error("syncing", &contact_history_path))?;
-    let records = read_contact_history(&contact_history_path)?;
-    if !records.is_empty() {
-        contact_history_svg(
-            &dir.join(CONTACT_HISTORY_PICTURE),
-            &records,
-            &contact_line.description,
-            &pressure_steps(&records, &pictures),
-        )?;
+
+    /// The error of a total normal contact force that cycles between `low` and `high` up to
+    /// step n: the step k is above the stability limit for the contact state reached.
+    fn force_cycle_error(&self, low: f64, high: f64, n: usize, time_step: f64) -> InputError {
+        InputError::InvalidInput(format!(
+            "{}: the total normal contact force cycles with period two between {low:.6e} and {high:.6e} over steps {}..={n}, although every step is solved exactly: the step k = {:e} is above the stability limit of the explicit normal compliance for the contact state reached (the estimate at the start was {:.3e}); raise `steps` or use `[scheme] contact = \"implicit\"`",
+            self.setup.origin,
+            n + 1 - CYCLE_WINDOW_STEPS,
+            time_step,
+            self.step_limit.time_step,
+        ))
     }
-    Ok(RunOutcome {
-        output_dir: dir,
-        started_from,
-        last_step: simulation.state().step,
-        saved_steps,
-        max_kkt,
-        seconds: clock.elapsed().as_secs_f64(),
-        interrupted,
-    })
+
+    /// The progress line of a saved step: its iterations, KKT residuals, contact status and
+    /// mean damage, and the time taken and left.
+    fn print_saved_step(&self, state: &State, row: &HistoryRow) {
+        if self.options.quiet {
+            return;
+        }
+        let (n, steps) = (state.step, self.steps);
+        let elapsed = self.clock.elapsed().as_secs_f64();
+        let done = n - self.started_from;
+        let left = elapsed / done as f64 * (self.last_step - n) as f64;
+        println!(
+            "step {n:>6}/{steps}  t = {:<10.4e} Newton {:>2}  friction {:>3}  damage {:>3}  KKT {:.1e}/{:.1e}  contact {}/{}/{} (sep/stick/slip)  β̄ = {:.4}  {elapsed:.1} s, ≈ {left:.1} s left",
+            state.time,
+            row.newton_iterations,
+            row.friction_iterations,
+            row.damage_iterations,
+            row.velocity_kkt,
+            row.damage_kkt,
+            row.separated,
+            row.stick,
+            row.slip,
+            row.mean_damage,
+        );
+    }
+
+    /// Ends the run: both CSV files synced, `contact_history.svg` drawn from the whole contact
+    /// history, and the outcome.
+    fn finish(
+        self,
+        simulation: &Simulation<D>,
+        progress: Progress,
+    ) -> Result<RunOutcome, InputError> {
+        let files = &self.files;
+        self.history
+            .sync_all()
+            .map_err(io_error("syncing", &files.history))?;
+        self.contact_history
+            .sync_all()
+            .map_err(io_error("syncing", &files.contact_history))?;
+        let records = read_contact_history(&files.contact_history)?;
+        if !records.is_empty() {
+            contact_history_svg(
+                &files.dir.join(CONTACT_HISTORY_PICTURE),
+                &records,
+                &self.contact_line.description,
+                &pressure_steps(&records, &self.pictures),
+            )?;
+        }
+        Ok(RunOutcome {
+            output_dir: self.files.dir,
+            started_from: self.started_from,
+            last_step: simulation.state().step,
+            saved_steps: progress.saved_steps,
+            max_kkt: progress.max_kkt,
+            seconds: self.clock.elapsed().as_secs_f64(),
+            interrupted: progress.interrupted,
+        })
+    }
 }

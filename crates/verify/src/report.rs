@@ -52,7 +52,23 @@ pub fn write_reports(
     studies: &[StudyResult],
 ) -> Result<Vec<PathBuf>, InputError> {
     let mut written = Vec::new();
-    let rows: Vec<ErrorRow> = studies
+    let rows = error_rows(case, dim, studies);
+    written.push(write_csv(out, "errors.csv", &rows)?);
+    let rate_rows = rate_rows(case, studies);
+    written.push(write_csv(out, "rates.csv", &rate_rows)?);
+    written.push(write_summary(out, case, origin, dim, studies)?);
+    for study in studies {
+        written.push(write_plot(out, case, dim, study)?);
+    }
+    written.extend(write_tables(
+        out, case, origin, dim, studies, &rows, &rate_rows,
+    )?);
+    Ok(written)
+}
+
+/// The rows of `errors.csv`: one per run of every study.
+fn error_rows(case: &str, dim: usize, studies: &[StudyResult]) -> Vec<ErrorRow> {
+    studies
         .iter()
         .flat_map(|study| {
             study.runs.iter().map(move |run| ErrorRow {
@@ -88,11 +104,12 @@ pub fn write_reports(
                 wall_seconds: run.stats.wall_seconds,
             })
         })
-        .collect();
-    let csv = out.join("errors.csv");
-    write_csv_atomic(&csv, &rows)?;
-    written.push(csv);
-    let rate_rows: Vec<RateRow> = studies
+        .collect()
+}
+
+/// The rows of `rates.csv`: one per study and error component.
+fn rate_rows(case: &str, studies: &[StudyResult]) -> Vec<RateRow> {
+    studies
         .iter()
         .flat_map(|study| {
             study.rates.iter().map(move |rates| RateRow {
@@ -124,10 +141,24 @@ pub fn write_reports(
                 },
             })
         })
-        .collect();
-    let rates_csv = out.join("rates.csv");
-    write_csv_atomic(&rates_csv, &rate_rows)?;
-    written.push(rates_csv);
+        .collect()
+}
+
+/// Writes `rows` as the CSV file `name` of `out`; returns its path.
+fn write_csv<T: Serialize>(out: &Path, name: &str, rows: &[T]) -> Result<PathBuf, InputError> {
+    let path = out.join(name);
+    write_csv_atomic(&path, rows)?;
+    Ok(path)
+}
+
+/// Writes `summary.json` into `out`; returns its path.
+fn write_summary(
+    out: &Path,
+    case: &str,
+    origin: &str,
+    dim: usize,
+    studies: &[StudyResult],
+) -> Result<PathBuf, InputError> {
     let summary = Summary {
         case,
         origin,
@@ -138,45 +169,65 @@ pub fn write_reports(
     };
     let json = out.join("summary.json");
     write_json_atomic(&json, &summary)?;
-    written.push(json);
-    for study in studies {
-        let path = out.join(plot_name(study));
-        // a component without any value (the velocity error of a k-study) is left out, and
-        // with it its legend entry; `loglog_svg` skips single points without a value
-        let series: Vec<Series> = ErrorComponents::NAMES
-            .iter()
-            .enumerate()
-            .filter(|(c, _)| study.runs.iter().any(|r| r.errors.values()[*c].is_finite()))
-            .map(|(c, name)| Series {
-                label: name.replace('_', " "),
-                points: study
-                    .runs
-                    .iter()
-                    .map(|r| {
-                        (
-                            if study.variable == "h" { r.h } else { r.k },
-                            r.errors.values()[c],
-                        )
-                    })
-                    .collect(),
-            })
-            .collect();
-        let title = format!(
-            "{case}: {}-study, d = {dim}, l = {} (expected rate {})",
-            study.kind.name(),
-            study.degree,
-            format_or_dash(study.expected_rate, |rate| format!("{rate:.2}"))
-        );
-        let mut references = Vec::new();
-        if study.expected_rate.is_finite() {
-            references.push(ReferenceSlope::order(study.expected_rate, study.variable));
-        }
-        if study.variable == "h" && (study.expected_rate - 1.0).abs() > 1e-12 {
-            references.push(ReferenceSlope::order(1.0, study.variable));
-        }
-        loglog_svg(&path, &title, study.variable, "error", &series, &references)?;
-        written.push(path);
+    Ok(json)
+}
+
+/// Writes the log–log plot of the errors of `study` into `out`; returns its path.
+fn write_plot(
+    out: &Path,
+    case: &str,
+    dim: usize,
+    study: &StudyResult,
+) -> Result<PathBuf, InputError> {
+    let path = out.join(plot_name(study));
+    // a component without any value (the velocity error of a k-study) is left out, and
+    // with it its legend entry; `loglog_svg` skips single points without a value
+    let series: Vec<Series> = ErrorComponents::NAMES
+        .iter()
+        .enumerate()
+        .filter(|(c, _)| study.runs.iter().any(|r| r.errors.values()[*c].is_finite()))
+        .map(|(c, name)| Series {
+            label: name.replace('_', " "),
+            points: study
+                .runs
+                .iter()
+                .map(|r| {
+                    (
+                        if study.variable == "h" { r.h } else { r.k },
+                        r.errors.values()[c],
+                    )
+                })
+                .collect(),
+        })
+        .collect();
+    let title = format!(
+        "{case}: {}-study, d = {dim}, l = {} (expected rate {})",
+        study.kind.name(),
+        study.degree,
+        format_or_dash(study.expected_rate, |rate| format!("{rate:.2}"))
+    );
+    let mut references = Vec::new();
+    if study.expected_rate.is_finite() {
+        references.push(ReferenceSlope::order(study.expected_rate, study.variable));
     }
+    if study.variable == "h" && (study.expected_rate - 1.0).abs() > 1e-12 {
+        references.push(ReferenceSlope::order(1.0, study.variable));
+    }
+    loglog_svg(&path, &title, study.variable, "error", &series, &references)?;
+    Ok(path)
+}
+
+/// Writes `report.md` and `tables.tex` into `out`, made from the rows of `errors.csv` and
+/// `rates.csv` ([`crate::tables`]); returns their paths.
+fn write_tables(
+    out: &Path,
+    case: &str,
+    origin: &str,
+    dim: usize,
+    studies: &[StudyResult],
+    rows: &[ErrorRow],
+    rate_rows: &[RateRow],
+) -> Result<[PathBuf; 2], InputError> {
     let heads: Vec<StudyHead> = studies
         .iter()
         .map(|study| StudyHead {
@@ -189,16 +240,14 @@ pub fn write_reports(
         })
         .collect();
     let md = out.join("report.md");
-    let text = tables::markdown(case, origin, dim, RATE_TOLERANCE, &heads, &rows, &rate_rows);
+    let text = tables::markdown(case, origin, dim, RATE_TOLERANCE, &heads, rows, rate_rows);
     write_atomic(&md, text.as_bytes())?;
-    written.push(md);
     let tex = out.join("tables.tex");
     write_atomic(
         &tex,
-        tables::latex(case, &heads, &rows, &rate_rows).as_bytes(),
+        tables::latex(case, &heads, rows, rate_rows).as_bytes(),
     )?;
-    written.push(tex);
-    Ok(written)
+    Ok([md, tex])
 }
 
 #[cfg(test)]
