@@ -1148,3 +1148,61 @@ fn a_band_left_below_the_coarse_tolerance_is_freed_by_coarse_corrections() {
     assert!(stats.coarse_iterations > 0, "{stats:?}");
     assert!(stats.iterations <= 5, "{stats:?}");
 }
+
+/// The reduced CG of the active set method solves A_FF y_F = r_F to its target within its
+/// iteration cap, on a free set that differs from the whole index set by a few indices (the
+/// preconditioned operator is then the identity plus a term of rank ≤ |I|, so CG needs about
+/// |I| + 1 steps; the cap is 2 min(|F|, |I| + 1) + 20), and within |I| + 2 preconditioner
+/// applications. The right-hand side is scaled by 1e3 so
+/// that ρ = rᵀz is far from 1 (β = ρ_{k+1}/ρ_k then differs from ρ_{k+1}).
+#[test]
+fn reduced_cg_solves_the_free_block_within_its_cap() {
+    let matrix = crate::algebra::multigrid::tests::laplacian(10, 0.1);
+    let n = matrix.nrows();
+    let mut solver = BoxQpSolver::new(matrix.clone(), active_set()).unwrap();
+    let fixed: Vec<bool> = (0..n).map(|i| (40..44).contains(&i)).collect();
+    let mut rng = TestRng::new(17);
+    let rhs: Vec<f64> = (0..n)
+        .map(|i| {
+            if fixed[i] {
+                0.0
+            } else {
+                1e3 * rng.range(-1.0, 1.0)
+            }
+        })
+        .collect();
+    let target = 1e-10 * rhs.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let mut solution = vec![0.0; n];
+    let mut work = super::workspace::Workspace::new(n);
+    let mut stats = BoxQpStats::default();
+    solver
+        .reduced_cg(
+            &fixed,
+            &rhs,
+            &mut solution,
+            target,
+            &mut work.cg,
+            &mut stats,
+        )
+        .unwrap();
+    let mut image = vec![0.0; n];
+    crate::algebra::linalg::multiply_into(&matrix, &solution, &mut image);
+    let worst = (0..n)
+        .filter(|&i| !fixed[i])
+        .map(|i| (image[i] - rhs[i]).abs())
+        .fold(0.0f64, f64::max);
+    assert!(
+        worst <= 10.0 * target,
+        "|A_FF y − r|_∞ = {worst:e} > 10 × target {target:e} after {} preconditioner applications",
+        stats.inner_iterations
+    );
+    assert!((0..n).filter(|&i| fixed[i]).all(|i| solution[i] == 0.0));
+    // |I| + 1 steps in exact arithmetic (one preconditioner application each), one more for
+    // rounding
+    let interface = fixed.iter().filter(|&&f| f).count();
+    assert!(
+        stats.inner_iterations <= interface + 2,
+        "{} preconditioner applications for |I| = {interface}",
+        stats.inner_iterations
+    );
+}

@@ -151,3 +151,80 @@ impl Problem<'_> {
         used
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::Mat;
+
+    /// S = Q diag(λ) Qᵀ with a known spectrum: Q a product of two Householder reflections.
+    fn matrix_with_spectrum(eigenvalues: &[f64]) -> (Mat<f64>, Vec<Vec<f64>>) {
+        let m = eigenvalues.len();
+        let reflect = |v: &[f64], x: &mut [f64]| {
+            let vv = dot(v, v);
+            let vx = dot(v, x);
+            x.iter_mut()
+                .zip(v)
+                .for_each(|(x, v)| *x -= 2.0 * vx / vv * v);
+        };
+        let first: Vec<f64> = (0..m).map(|i| (0.7 * i as f64 + 0.3).sin()).collect();
+        let second: Vec<f64> = (0..m).map(|i| (1.3 * i as f64 - 0.2).cos()).collect();
+        let vectors: Vec<Vec<f64>> = (0..m)
+            .map(|j| {
+                let mut e = vec![0.0; m];
+                e[j] = 1.0;
+                reflect(&first, &mut e);
+                reflect(&second, &mut e);
+                e
+            })
+            .collect();
+        let matrix = Mat::from_fn(m, m, |i, k| {
+            (0..m)
+                .map(|j| eigenvalues[j] * vectors[j][i] * vectors[j][k])
+                .sum()
+        });
+        (matrix, vectors)
+    }
+
+    #[test]
+    fn backtracking_accepts_a_step_only_where_the_quadratic_model_bounds_the_energy() {
+        // Along the top eigenvector v of S the smooth energy of the step x = r/L from 0
+        // (r = v, no friction) lies below the model J(0) − |r|²/L + L|x|²/2 iff L ≥ λ_max: the
+        // first accepted L of the doubling sequence 0.3 λ_max, 0.6 λ_max, 1.2 λ_max is 1.2 λ_max.
+        let eigenvalues = [0.5, 1.0, 2.0, 3.0, 5.0, 8.0];
+        let top = 8.0;
+        let (matrix, vectors) = matrix_with_spectrum(&eigenvalues);
+        let rhs = vectors[5].clone();
+        let weights = vec![0.0; 6];
+        let problem = Problem::new(matrix.as_ref(), &rhs, &weights, 1);
+        let mut x = vec![0.0; 6];
+        let mut sx = vec![0.0; 6];
+        let mut energy = problem.energy(&x, &sx);
+        let mut report = problem.kkt(&x, &sx);
+        let mut lipschitz = Lipschitz {
+            value: 0.3 * top,
+            upper: problem.lipschitz().upper,
+        };
+        assert!(lipschitz.upper >= top);
+        let steps = problem.gradient_burst(
+            &mut x,
+            &mut sx,
+            &mut energy,
+            &mut report,
+            &mut lipschitz,
+            1,
+            0.0,
+        );
+        assert_eq!(steps, 1);
+        assert!(
+            (lipschitz.value - 1.2 * top).abs() <= 1e-12 * top,
+            "accepted L = {} (λ_max = {top})",
+            lipschitz.value
+        );
+        // the step x = r / L was taken: J decreased
+        assert!(energy.value < 0.0);
+        for (xi, ri) in x.iter().zip(&rhs) {
+            assert!((xi - ri / lipschitz.value).abs() <= 1e-14);
+        }
+    }
+}
