@@ -6,13 +6,24 @@
 //! j_h(u, w) = Σ_a ω_a [ p_ν(u_ν(a) − g(a)) w_ν(a) + p_τ(u_ν(a) − g(a)) |w_τ(a)| ],
 //! ω_a = ∫_Γ3 φ_a dΓ,
 //!
-//! over the nodes a of Γ3 (excluding Γ1, where w = 0). ω_a is the exact integral of the nodal
+//! over the nodes a of Γ3 (excluding the nodes where Γ1 fixes w, see below). ω_a is the exact
+//! integral of the nodal
 //! basis function: the trapezoidal rule for P1, Simpson's rule on P2 edges in 2D, and the
 //! edge-midpoint rule on P2 triangles in 3D (whose vertex weights are zero). Each rule is exact
 //! for polynomials of degree l on facets, so it does not lower the O(h^l) consistency of
 //! the scheme. The normal ν_a is the measure-weighted mean of the normals of the Γ3 facets
 //! around a (the facet normal on a flat part of Γ3). The rule makes j_h a sum of Euclidean
 //! norms of nodal tangential velocities, which the velocity step (5.1) solves exactly.
+//!
+//! **Where Γ1 meets Γ3.** A node of Γ3 that also lies on Γ1 keeps the contact rule when the
+//! components Γ1 fixes there are tangential to Γ3: a roller or symmetry plane that cuts the
+//! contact zone (the plane x = 0 of a half model fixes u_x, and the contact normal lies in the
+//! plane). Its normal is the Γ3 normal with the fixed Cartesian components removed, which is the
+//! mean normal of the mirrored, whole body; its frame has the fixed axes ±e_i as tangent columns,
+//! so that the constraint is a constraint on a component of the contact frame. The node leaves
+//! Γ3 when every component is fixed (a clamp) or when the fixed components carry more than half
+//! of the normal's length (|ν_free| < |ν|/√2: the constraint acts on the normal displacement,
+//! and contact there is carried by Γ1).
 
 use crate::error::{Error, Result};
 use crate::fem::mesh::BoundaryPart;
@@ -56,14 +67,63 @@ pub fn frame_from_normal<const D: usize>(normal: &SVector<f64, D>) -> SMatrix<f6
     frame
 }
 
+/// The frame of a contact node where Γ1 fixes the Cartesian axes `fixed` (not all of them):
+/// columns (ν, e_i for each fixed axis i in increasing order, then the free tangent in 3D with
+/// one fixed axis, ν × e_i). `normal` is a unit vector with zero components on the fixed axes,
+/// so the columns are orthonormal and each fixed axis is exactly one column.
+pub fn frame_with_fixed_axes<const D: usize>(
+    normal: &SVector<f64, D>,
+    fixed: &[bool; D],
+) -> SMatrix<f64, D, D> {
+    let mut frame = SMatrix::<f64, D, D>::zeros();
+    frame.set_column(0, normal);
+    let mut column = 1;
+    for (i, _) in fixed.iter().enumerate().filter(|(_, &f)| f) {
+        frame[(i, column)] = 1.0;
+        column += 1;
+    }
+    if column < D {
+        // 3D with one fixed axis i: the free tangent ν × e_i (unit, ⟂ ν and e_i)
+        let i = fixed.iter().position(|&f| f).unwrap_or(0);
+        let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+        // (ν × e_i)_j = ν_k, (ν × e_i)_k = −ν_j, (ν × e_i)_i = 0
+        frame[(j, column)] = normal[k];
+        frame[(k, column)] = -normal[j];
+    }
+    frame
+}
+
+/// The system component of a contact frame that is the fixed Cartesian axis `axis` (its column
+/// ±e_axis), if any: where the constraint of Γ1 acts in the contact frame.
+pub fn fixed_axis_column<const D: usize>(frame: &SMatrix<f64, D, D>, axis: usize) -> Option<usize> {
+    (1..D).find(|&column| frame[(axis, column)].abs() == 1.0)
+}
+
 impl<const D: usize> ContactNodes<D> {
-    /// Collects the Γ3 nodes of `space`, their weights ω_a and frames.
+    /// Collects the Γ3 nodes of `space`, their weights ω_a and frames, with every component of
+    /// every node of Γ1 fixed (the paper's clamp u = 0 on Γ1, (2.5)): no node of Γ1 is a contact
+    /// node.
     pub fn new(space: &LagrangeSpace<D>) -> Result<Self> {
+        let mut constrained = vec![false; space.num_nodes() * D];
+        for node in space.boundary_nodes(BoundaryPart::Dirichlet) {
+            constrained[node * D..node * D + D].fill(true);
+        }
+        Self::with_constraints(space, &constrained)
+    }
+
+    /// Collects the Γ3 nodes of `space` given the fixed Cartesian components of Γ1
+    /// (`constrained`, node-major): a Γ3 node with fixed components stays a contact node when
+    /// they are tangential (see the module documentation), with its normal projected off the
+    /// fixed axes and those axes in its frame.
+    pub fn with_constraints(space: &LagrangeSpace<D>, constrained: &[bool]) -> Result<Self> {
         let mesh = space.mesh();
         let n_nodes = space.num_nodes();
-        let mut clamped = vec![false; n_nodes];
-        for node in space.boundary_nodes(BoundaryPart::Dirichlet) {
-            clamped[node] = true;
+        if constrained.len() != n_nodes * D {
+            return Err(Error::InvalidInput(format!(
+                "{} constraint flags for {} unknowns",
+                constrained.len(),
+                n_nodes * D
+            )));
         }
         let mut weights = vec![0.0; n_nodes];
         let mut normals = vec![SVector::<f64, D>::zeros(); n_nodes];
@@ -112,7 +172,11 @@ impl<const D: usize> ContactNodes<D> {
             index_of_node: vec![None; n_nodes],
         };
         for node in 0..n_nodes {
-            if !on_contact[node] || clamped[node] || weights[node] <= 1e-12 * scale {
+            if !on_contact[node] || weights[node] <= 1e-12 * scale {
+                continue;
+            }
+            let fixed: [bool; D] = std::array::from_fn(|i| constrained[node * D + i]);
+            if fixed.iter().all(|&f| f) {
                 continue;
             }
             let norm = normals[node].norm();
@@ -122,12 +186,25 @@ impl<const D: usize> ContactNodes<D> {
                     space.node(node)
                 )));
             }
+            let frame = if fixed.contains(&true) {
+                let mut free = normals[node];
+                for (i, &f) in fixed.iter().enumerate() {
+                    if f {
+                        free[i] = 0.0;
+                    }
+                }
+                let free_norm = free.norm();
+                if free_norm < norm * std::f64::consts::FRAC_1_SQRT_2 {
+                    continue;
+                }
+                frame_with_fixed_axes(&(free / free_norm), &fixed)
+            } else {
+                frame_from_normal(&(normals[node] / norm))
+            };
             result.index_of_node[node] = Some(result.nodes.len());
             result.nodes.push(node);
             result.weights.push(weights[node]);
-            result
-                .frames
-                .push(frame_from_normal(&(normals[node] / norm)));
+            result.frames.push(frame);
         }
         Ok(result)
     }

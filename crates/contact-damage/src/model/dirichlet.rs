@@ -8,8 +8,9 @@
 //! paper's case. At a node shared by several facets the constraints add up; a component
 //! given by a part takes that part's value (the first part listed wins where parts meet), else
 //! 0 if the node lies on a clamped facet. A part may carry a traction on its free components
-//! (zero by default: a frictionless roller), added to the load like f2 on Γ2 (2.6). Contact nodes never carry a constraint
-//! ([`crate::model::contact::ContactNodes`] leaves out every node of Γ1).
+//! (zero by default: a frictionless roller), added to the load like f2 on Γ2 (2.6). Where a
+//! roller or symmetry plane meets Γ3, a node keeps the contact rule when the components it
+//! fixes are tangential to Γ3 (see [`crate::model::contact`]); a clamped node of Γ3 leaves it.
 
 use crate::error::{Error, Result};
 use crate::fem::mesh::BoundaryPart;

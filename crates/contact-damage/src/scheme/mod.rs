@@ -228,8 +228,11 @@ impl<const D: usize> Simulation<D> {
             ));
         }
         let space = Arc::new(LagrangeSpace::new(problem.mesh.clone(), problem.degree)?);
-        let contact = Arc::new(ContactNodes::new(&space)?);
         let dirichlet = DirichletConstraints::new(&space, &problem.data.dirichlet)?;
+        let contact = Arc::new(ContactNodes::with_constraints(
+            &space,
+            &dirichlet.constrained,
+        )?);
         let velocity = VelocityOperator::with_constraints(
             space.clone(),
             model.viscosity.clone(),

@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 use crate::fem::mesh::BoundaryPart;
 use crate::fem::quadrature::QuadratureRule;
 use crate::fem::space::{LagrangeSpace, Tabulation};
-use crate::model::contact::ContactNodes;
+use crate::model::contact::{fixed_axis_column, ContactNodes};
 use crate::model::laws::Viscosity;
 use faer::sparse::{Pair, SparseColMat};
 use faer::Mat;
@@ -31,32 +31,46 @@ impl<const D: usize> VelocityOperator<D> {
     }
 
     /// [`Self::new`] with the constrained unknowns given (Cartesian components, node-major):
-    /// rollers and symmetry planes constrain some components of a node only. A contact node
-    /// may not be constrained ([`Error::InvalidInput`] naming the node).
+    /// rollers and symmetry planes constrain some components of a node only. At a contact node
+    /// the constraint acts in its frame: each fixed axis must be a tangent column of the frame
+    /// ([`ContactNodes::with_constraints`] builds such frames; otherwise [`Error::InvalidInput`]
+    /// naming the node).
     pub fn with_constraints(
         space: Arc<LagrangeSpace<D>>,
         law: Arc<dyn Viscosity<D>>,
         contact: Arc<ContactNodes<D>>,
-        constrained: Vec<bool>,
+        constrained_cartesian: Vec<bool>,
     ) -> Result<Self> {
         law.validate()?;
         let n_nodes = space.num_nodes();
-        if constrained.len() != n_nodes * D {
+        if constrained_cartesian.len() != n_nodes * D {
             return Err(Error::InvalidInput(format!(
                 "{} constraint flags for {} unknowns",
-                constrained.len(),
+                constrained_cartesian.len(),
                 n_nodes * D
             )));
         }
-        if let Some(&node) = contact
-            .nodes
-            .iter()
-            .find(|&&node| constrained[node * D..node * D + D].contains(&true))
-        {
-            return Err(Error::InvalidInput(format!(
-                "contact node {node} at {:?} has a constrained component (Γ1 and Γ3 overlap)",
-                space.node(node)
-            )));
+        // the constrained unknowns of the system frame: at a contact node, the frame components
+        // that are the fixed Cartesian axes
+        let mut constrained = constrained_cartesian.clone();
+        for (k, &node) in contact.nodes.iter().enumerate() {
+            let frame = &contact.frames[k];
+            let mut system = [false; D];
+            for axis in 0..D {
+                if !constrained_cartesian[node * D + axis] {
+                    continue;
+                }
+                let column = fixed_axis_column(frame, axis).ok_or_else(|| {
+                    Error::InvalidInput(format!(
+                        "contact node {node} at {:?} has its component {axis} constrained, \
+                         which is not a tangent axis of its contact frame (Γ1 fixes the \
+                         normal displacement of a Γ3 node)",
+                        space.node(node)
+                    ))
+                })?;
+                system[column] = true;
+            }
+            constrained[node * D..node * D + D].copy_from_slice(&system);
         }
         let size = n_nodes * D;
         let n_local = space.nodes_per_cell() * D;
@@ -108,8 +122,10 @@ impl<const D: usize> VelocityOperator<D> {
             law,
             contact,
             constrained,
+            constrained_cartesian,
             constrained_cells,
             prescribed: vec![0.0; size],
+            prescribed_cartesian: vec![0.0; size],
             lifting_scale: 0.0,
             pattern,
             tabulation,

@@ -3,6 +3,7 @@
 //! reactions on the constrained unknowns.
 
 use super::operator::VelocityOperator;
+use crate::error::{Error, Result};
 use nalgebra::SVector;
 use rayon::prelude::*;
 
@@ -49,14 +50,16 @@ impl<const D: usize> VelocityOperator<D> {
         force
     }
 
-    /// Reactions R_c = ⟨𝒜ε(v), ε(φ_c)⟩ − F_c on the constrained unknowns (Cartesian load and
-    /// velocity; zero on the free unknowns): the residual of the equilibrium there.
+    /// Reactions R_c = ⟨𝒜ε(v), ε(φ_c)⟩ − F_c on the constrained Cartesian unknowns (Cartesian
+    /// load and velocity; zero on the free unknowns): the residual of the equilibrium there. At
+    /// a contact node on a symmetry plane the contact and friction forces are normal to the
+    /// fixed axis, so the residual along it is the reaction alone.
     pub fn reactions(&self, load_cartesian: &[f64], velocity_cartesian: &[f64]) -> Vec<f64> {
         let mut reaction = self.constrained_cell_force(velocity_cartesian);
         for ((r, f), &c) in reaction
             .iter_mut()
             .zip(load_cartesian)
-            .zip(&self.constrained)
+            .zip(&self.constrained_cartesian)
         {
             *r = if c { *r - f } else { 0.0 };
         }
@@ -117,13 +120,40 @@ impl<const D: usize> VelocityOperator<D> {
         (energy, force)
     }
 
-    pub(super) fn friction_weights(&self, friction_bound: &[f64]) -> Vec<f64> {
-        self.contact
+    /// The weights w_a = ω_a μ p_ν of the friction term at the contact nodes. A node whose
+    /// tangential components are all fixed by Γ1 has weight 0: its friction acts on fixed
+    /// unknowns only and enters the reaction there. Error: a node with one of two tangents fixed
+    /// to a nonzero velocity and a positive friction bound (the friction term would couple the
+    /// free tangent with a moving constraint; a symmetry plane, velocity 0, is exact).
+    pub(super) fn friction_weights(&self, friction_bound: &[f64]) -> Result<Vec<f64>> {
+        let mut weights: Vec<f64> = self
+            .contact
             .weights
             .iter()
             .zip(friction_bound)
             .map(|(w, s)| w * s)
-            .collect()
+            .collect();
+        for (k, &node) in self.contact.nodes.iter().enumerate() {
+            let fixed = &self.constrained[node * D + 1..node * D + D];
+            if !fixed.contains(&true) {
+                continue;
+            }
+            if fixed.iter().all(|&f| f) {
+                weights[k] = 0.0;
+                continue;
+            }
+            let moving = (1..D)
+                .any(|i| self.constrained[node * D + i] && self.prescribed[node * D + i] != 0.0);
+            if moving && weights[k] > 0.0 {
+                return Err(Error::InvalidInput(format!(
+                    "contact node {node} at {:?}: Γ1 moves a tangential component of a node in \
+                     frictional contact (a moving roller across Γ3); only a fixed roller or \
+                     symmetry plane (zero prescribed displacement) may cut the contact zone",
+                    self.space.node(node)
+                )));
+            }
+        }
+        Ok(weights)
     }
 
     pub(super) fn friction_term(&self, weights: &[f64], velocity_system: &[f64]) -> f64 {

@@ -55,7 +55,9 @@ impl<const D: usize> VelocityOperator<D> {
         for (k, &node) in self.contact.nodes.iter().enumerate() {
             let lambda = &multipliers[k * g..(k + 1) * g];
             for i in 0..g {
-                residual[node * D + 1 + i] += weights[k] * lambda[i];
+                if !self.constrained[node * D + 1 + i] {
+                    residual[node * D + 1 + i] += weights[k] * lambda[i];
+                }
             }
             let norm = lambda.iter().map(|l| l * l).sum::<f64>().sqrt();
             worst = worst.max(norm - 1.0);
@@ -106,7 +108,10 @@ impl<const D: usize> VelocityOperator<D> {
             } else {
                 for (i, l) in lambda.iter_mut().enumerate() {
                     let dof = node * D + 1 + i;
-                    *l = -(force_system[dof] - load_system[dof]) / weights[k];
+                    // a tangent fixed by Γ1 takes its force as a reaction, not as friction
+                    if !self.constrained[dof] {
+                        *l = -(force_system[dof] - load_system[dof]) / weights[k];
+                    }
                 }
                 let norm = lambda.iter().map(|l| l * l).sum::<f64>().sqrt();
                 if norm > 1.0 {

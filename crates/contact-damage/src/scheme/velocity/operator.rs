@@ -18,12 +18,19 @@ pub struct VelocityOperator<const D: usize> {
     pub(super) space: Arc<LagrangeSpace<D>>,
     pub(super) law: Arc<dyn Viscosity<D>>,
     pub(super) contact: Arc<ContactNodes<D>>,
-    /// Constrained unknowns (Cartesian components of Γ1 nodes), node-major.
+    /// Constrained unknowns of the system frame, node-major: Cartesian components of Γ1 nodes,
+    /// frame components at the contact nodes that a roller or symmetry plane of Γ1 fixes
+    /// (tangential, [`ContactNodes::with_constraints`]).
     pub(super) constrained: Vec<bool>,
+    /// The constrained Cartesian components (where the reactions are).
+    pub(super) constrained_cartesian: Vec<bool>,
     /// Cells with a constrained unknown (where the reactions and the lifting are assembled).
     pub(super) constrained_cells: Vec<usize>,
-    /// Prescribed velocities of the current step on the constrained unknowns (zero elsewhere).
+    /// Prescribed velocities of the current step on the constrained unknowns of the system
+    /// frame (zero elsewhere).
     pub(super) prescribed: Vec<f64>,
+    /// The same on the constrained Cartesian components (the lifting is assembled from them).
+    pub(super) prescribed_cartesian: Vec<f64>,
     /// max |(K p)_f| over the free unknowns of the current step (scale of the KKT residual).
     pub(super) lifting_scale: f64,
     pub(super) pattern: SparsityPattern,
@@ -88,6 +95,6 @@ impl<const D: usize> VelocityOperator<D> {
 
     /// The constrained unknowns (Cartesian components, node-major).
     pub fn constrained(&self) -> &[bool] {
-        &self.constrained
+        &self.constrained_cartesian
     }
 }

@@ -21,8 +21,8 @@ impl<const D: usize> VelocityOperator<D> {
         self.set_prescribed(data)?;
         // the force of the prescribed velocities on the free unknowns, K_fc p_c (linear 𝒜: its
         // lifting; nonlinear: its first-order part), in the system frame
-        let lifting = if self.prescribed.iter().any(|&p| p != 0.0) {
-            Some(self.to_system(&self.constrained_cell_force(&self.prescribed)))
+        let lifting = if self.prescribed_cartesian.iter().any(|&p| p != 0.0) {
+            Some(self.to_system(&self.constrained_cell_force(&self.prescribed_cartesian)))
         } else {
             None
         };
@@ -35,7 +35,7 @@ impl<const D: usize> VelocityOperator<D> {
                 load[node * D] -= self.contact.weights[k] * data.normal_pressure[k];
             }
         }
-        let weights = self.friction_weights(data.friction_bound);
+        let weights = self.friction_weights(data.friction_bound)?;
         self.implicit.clone_from(&data.implicit_contact);
         if self.implicit.is_some() {
             // the tangent depends on the step's penetrations, not only on v
@@ -137,10 +137,12 @@ impl<const D: usize> VelocityOperator<D> {
     }
 
     /// Takes the prescribed velocities of the step on the constrained unknowns (zero when the
-    /// data has none), checking their number and finiteness.
+    /// data has none), checking their number and finiteness: Cartesian, and in the system frame
+    /// (at a contact node, the fixed frame components ±e_i · v).
     fn set_prescribed(&mut self, data: &VelocityData<'_>) -> Result<()> {
         let size = self.size();
         self.prescribed.fill(0.0);
+        self.prescribed_cartesian.fill(0.0);
         if let Some(prescribed) = data.prescribed {
             if prescribed.len() != size {
                 return Err(Error::InvalidInput(format!(
@@ -148,7 +150,12 @@ impl<const D: usize> VelocityOperator<D> {
                     prescribed.len()
                 )));
             }
-            for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
+            for (dof, _) in self
+                .constrained_cartesian
+                .iter()
+                .enumerate()
+                .filter(|(_, &c)| c)
+            {
                 if !prescribed[dof].is_finite() {
                     return Err(Error::NonFinite(format!(
                         "prescribed velocity {} at node {} ({:?}), component {}",
@@ -158,7 +165,11 @@ impl<const D: usize> VelocityOperator<D> {
                         dof % D
                     )));
                 }
-                self.prescribed[dof] = prescribed[dof];
+                self.prescribed_cartesian[dof] = prescribed[dof];
+            }
+            let system = self.rotate_to_system(&self.prescribed_cartesian);
+            for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
+                self.prescribed[dof] = system[dof];
             }
         }
         Ok(())
