@@ -103,6 +103,35 @@ fn axis_of_spread<const D: usize>(points: &[[f64; D]], smallest: bool, among: &[
     best
 }
 
+/// The typical distance between neighbouring nodes of Γ3: the median length of the edges of its
+/// facets divided by the degree (P2 puts a node in the middle of every edge).
+fn contact_node_spacing<const D: usize>(space: &LagrangeSpace<D>) -> f64 {
+    let mesh = space.mesh();
+    let mut lengths = Vec::new();
+    for f in 0..mesh.num_facets() {
+        if mesh.facet_part(f) != BoundaryPart::Contact {
+            continue;
+        }
+        let vertices = mesh.facet(f);
+        for (i, &a) in vertices.iter().enumerate() {
+            for &b in &vertices[i + 1..] {
+                let (p, q) = (mesh.vertex(a), mesh.vertex(b));
+                lengths.push((0..D).map(|j| (p[j] - q[j]).powi(2)).sum::<f64>().sqrt());
+            }
+        }
+    }
+    if lengths.is_empty() {
+        return 0.0;
+    }
+    lengths.sort_by(f64::total_cmp);
+    lengths[lengths.len() / 2] / space.degree() as f64
+}
+
+/// `value` with four significant digits, for labels.
+fn significant(value: f64) -> String {
+    format!("{}", format!("{value:.3e}").parse::<f64>().unwrap_or(value))
+}
+
 /// The contact nodes whose history is recorded, in the order of their coordinate along Γ3.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ContactLine {
@@ -148,9 +177,14 @@ impl ContactLine {
                 .map(|p| p[across])
                 .min_by(|a, b| (a - middle).abs().total_cmp(&(b - middle).abs()))
                 .unwrap_or(middle);
-            let tolerance = 1e-9 * (high - low).max(f64::MIN_POSITIVE);
-            indices.retain(|&k| (points[k][across] - nearest).abs() <= tolerance);
-            description = format!("{description} ({} = {nearest})", AXIS_NAMES[across]);
+            let half_width = 0.5 * contact_node_spacing(space);
+            indices.retain(|&k| (points[k][across] - nearest).abs() < half_width);
+            description = format!(
+                "{description} ({} = {} ± {})",
+                AXIS_NAMES[across],
+                significant(nearest),
+                significant(half_width)
+            );
         }
         indices.sort_by(|&a, &b| points[a][axis].total_cmp(&points[b][axis]));
         let coordinates = indices.iter().map(|&k| points[k][axis]).collect();
@@ -756,6 +790,75 @@ pub fn pressure_steps(records: &[ContactRecord], picture_steps: &[usize]) -> Vec
 #[cfg(test)]
 mod tests {
     use super::*;
+    use contact_damage::fem::mesh::{BoundaryPart::*, Mesh};
+    use std::sync::Arc;
+
+    /// The unit cube with Γ3 = {z = 0}, 8 cells per side, the vertices of the open face z = 0
+    /// moved within the face by up to a quarter cell (`jitter` = 0.25) or not at all: an
+    /// unstructured contact face on which no line of nodes is straight.
+    fn cube_with_jittered_contact_face(jitter: f64, degree: usize) -> LagrangeSpace<3> {
+        let cube = Mesh::box_mesh(
+            [0.0; 3],
+            [1.0; 3],
+            [8; 3],
+            [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]],
+        )
+        .unwrap();
+        let mut vertices = cube.vertices().to_vec();
+        for (v, x) in vertices.iter_mut().enumerate() {
+            let inside = x[0] > 0.0 && x[0] < 1.0 && x[1] > 0.0 && x[1] < 1.0;
+            if x[2] == 0.0 && inside {
+                x[0] += jitter / 8.0 * (1.7 * v as f64).sin();
+                x[1] += jitter / 8.0 * (2.3 * v as f64 + 0.4).cos();
+            }
+        }
+        let cells = (0..cube.num_cells())
+            .flat_map(|c| cube.cell(c).to_vec())
+            .collect();
+        let facets = (0..cube.num_facets())
+            .flat_map(|f| cube.facet(f).to_vec())
+            .collect();
+        let parts = (0..cube.num_facets()).map(|f| cube.facet_part(f)).collect();
+        let mesh = Mesh::new(vertices, cells, facets, parts).unwrap();
+        LagrangeSpace::new(Arc::new(mesh), degree).unwrap()
+    }
+
+    #[test]
+    fn contact_line_in_3d_is_a_grid_line_on_a_box_and_a_band_on_an_unstructured_face() {
+        for degree in [1, 2] {
+            // box mesh: one grid line across the middle, every contact node of it
+            let space = cube_with_jittered_contact_face(0.0, degree);
+            let contact = ContactNodes::new(&space).unwrap();
+            let line = ContactLine::new(&space, &contact);
+            let across = 1 - line.axis;
+            let at = space.node(contact.nodes[line.indices[0]])[across];
+            assert!((at - 0.5).abs() <= 1.0 / 16.0, "line at {at}");
+            let on_line = contact
+                .nodes
+                .iter()
+                .filter(|&&a| (space.node(a)[across] - at).abs() < 1e-12)
+                .count();
+            assert_eq!(line.indices.len(), on_line, "degree {degree}");
+            assert!(line
+                .indices
+                .iter()
+                .all(|&k| (space.node(contact.nodes[k])[across] - at).abs() < 1e-12));
+            // jittered face: a band with nodes spread along the whole face, at most a node
+            // spacing apart
+            let space = cube_with_jittered_contact_face(0.25, degree);
+            let contact = ContactNodes::new(&space).unwrap();
+            let line = ContactLine::new(&space, &contact);
+            let gaps = line.coordinates.windows(2).map(|w| w[1] - w[0]);
+            let spacing = 1.0 / (8 * degree) as f64;
+            assert!(
+                gaps.clone().all(|gap| gap <= 2.5 * spacing),
+                "{:?}",
+                line.coordinates
+            );
+            assert!(line.coordinates[0] <= 2.0 * spacing);
+            assert!(*line.coordinates.last().unwrap() >= 1.0 - 2.0 * spacing);
+        }
+    }
 
     #[test]
     fn damage_colors_run_from_violet_to_yellow_and_clamp() {
