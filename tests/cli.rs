@@ -483,3 +483,85 @@ fn verify_baseline_regenerates_the_baseline_and_lists_the_errors_that_moved() {
         assert!(copy.join(name).exists(), "{name} not written");
     }
 }
+
+/// `/dev/full`, opened for writing: every write fails with ENOSPC.
+fn full_disk() -> std::process::Stdio {
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap()
+        .into()
+}
+
+/// The write end of a pipe whose read end is already closed: every write fails with EPIPE.
+/// (The read end belongs to a `true` process, which has exited when this returns.)
+fn closed_pipe() -> std::process::Stdio {
+    let mut reader = Command::new("true")
+        .stdin(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let writer = reader.stdin.take().unwrap();
+    assert!(reader.wait().unwrap().success());
+    writer.into()
+}
+
+/// Runs `verify args` with standard output `stdout`; returns the status and stderr.
+fn verify_into(args: &[&std::ffi::OsStr], stdout: std::process::Stdio) -> (Option<i32>, String) {
+    let output = verify()
+        .args(args)
+        .env("CI", "1")
+        .stdout(stdout)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+        .wait_with_output()
+        .unwrap();
+    (
+        output.status.code(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+/// Two cheap commands that write to standard output: `--help`, and `plan` of a small case
+/// into a fresh folder under `dir` named `name`.
+fn cheap_commands(dir: &std::path::Path, name: &str) -> Vec<Vec<std::ffi::OsString>> {
+    let out = dir.join(name);
+    vec![
+        vec!["--help".into()],
+        vec![
+            "plan".into(),
+            "--case".into(),
+            "slip2d".into(),
+            "--levels".into(),
+            "2".into(),
+            "--out".into(),
+            out.into_os_string(),
+        ],
+    ]
+}
+
+#[test]
+fn a_full_standard_output_is_an_error_naming_it_not_a_panic() {
+    let dir = scratch("dev-full");
+    for args in cheap_commands(&dir, "plan") {
+        let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_os_str()).collect();
+        let (status, stderr) = verify_into(&args, full_disk());
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert_eq!(status, Some(2), "{args:?}: {stderr}");
+        assert!(
+            stderr.contains("standard output") && stderr.contains("No space left on device"),
+            "{args:?}: {stderr}"
+        );
+    }
+}
+
+#[test]
+fn a_closed_standard_output_ends_quietly_with_status_141() {
+    let dir = scratch("closed-pipe");
+    for args in cheap_commands(&dir, "plan") {
+        let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_os_str()).collect();
+        let (status, stderr) = verify_into(&args, closed_pipe());
+        assert_eq!(status, Some(141), "{args:?}: {stderr}");
+        assert!(stderr.is_empty(), "{args:?}: {stderr}");
+    }
+}

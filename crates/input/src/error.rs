@@ -77,12 +77,20 @@ pub enum InputError {
     /// state).
     #[error("invalid input: {0}")]
     InvalidInput(String),
+    /// Standard output or standard error could not be written.
+    #[error(transparent)]
+    Console(#[from] crate::console::ConsoleError),
     /// The solver crate reported an error.
     #[error(transparent)]
     Solver(#[from] contact_damage::Error),
 }
 
 impl InputError {
+    /// Whether this is a write into a closed pipe (see [`crate::console`]).
+    pub fn is_closed_pipe(&self) -> bool {
+        matches!(self, InputError::Console(error) if error.is_closed_pipe())
+    }
+
     /// Shorthand for [`InputError::Io`].
     pub fn io(action: &'static str, path: impl Into<PathBuf>, source: std::io::Error) -> Self {
         InputError::Io {

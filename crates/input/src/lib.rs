@@ -7,12 +7,14 @@
 //! - [`sides`]: the sides of a box domain and their boundary parts Γ1, Γ2, Γ3;
 //! - [`scheme`]: the `[scheme]` table (explicit or implicit normal compliance);
 //! - [`output`]: atomic writing of output files (raw bytes, JSON, CSV), missing values;
+//! - [`console`]: writing to standard output and error without panicking;
 //! - [`threads`]: the `--threads` option;
 //! - [`number`]: numbers in messages, printed short;
 //! - [`mutation`]: hostile edits of input text for the parsers' robustness tests;
 //! - [`error`]: the error type, naming file, key or line; the file kind ("case" or
 //!   "problem file") is the caller's ([`FileKind`]).
 
+pub mod console;
 pub mod error;
 pub mod expr;
 pub mod file;

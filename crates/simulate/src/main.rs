@@ -3,10 +3,14 @@
 //! verification, [`simulate::convergence`]): see the crate documentation.
 //!
 //! Exit codes: 0 done, 1 error, 130 interrupted by Ctrl-C (the step in progress was finished
-//! and saved; `--resume` continues). A second Ctrl-C ends the program at once; every file on
-//! disk is then still whole (all of them are written atomically or appended line by line).
+//! and saved; `--resume` continues), 141 standard output or error is a closed pipe (e.g. `|
+//! head`; the program ends quietly at the first line it cannot write). A second Ctrl-C ends the
+//! program at once; every file on disk is then still whole (all of them are written atomically
+//! or appended line by line). Every line goes through [`contact_input::console`]: a write that
+//! fails is an error, never a panic.
 
 use clap::Parser;
+use contact_input::{errln, outln, InputError};
 use simulate::run::RunOptions;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -54,11 +58,45 @@ struct Cli {
     at: Option<Vec<f64>>,
 }
 
+/// The end of the program after `error`: status 1 after the message on standard error, or 141
+/// quietly for a closed pipe ([`contact_input::console::exit_status`]).
+fn fail(error: &InputError) -> ExitCode {
+    ExitCode::from(contact_input::console::exit_status(
+        "simulate",
+        error,
+        error.is_closed_pipe(),
+        1,
+    ))
+}
+
+/// The end of the program for a command line that clap did not run (`--help`, `--version`, a
+/// usage error): its text written without panicking, and clap's status.
+fn clap_exit(error: &clap::Error) -> ExitCode {
+    use std::io::IsTerminal;
+    let text = error.render();
+    let written = if error.use_stderr() {
+        match std::io::stderr().is_terminal() {
+            true => contact_input::console::err(format_args!("{}", text.ansi())),
+            false => contact_input::console::err(format_args!("{text}")),
+        }
+    } else {
+        match std::io::stdout().is_terminal() {
+            true => contact_input::console::out(format_args!("{}", text.ansi())),
+            false => contact_input::console::out(format_args!("{text}")),
+        }
+    };
+    match written {
+        Ok(()) => ExitCode::from(u8::try_from(error.exit_code()).unwrap_or(1)),
+        Err(failed) => fail(&failed.into()),
+    }
+}
+
 /// `--convergence`: runs the levels, prints the table and writes the files.
 fn convergence(cli: &Cli, levels: usize) -> ExitCode {
     let Some(out) = cli.out.clone() else {
-        eprintln!("simulate: --convergence needs --out DIR (the levels and the reports go there)");
-        return ExitCode::FAILURE;
+        return fail(&InputError::InvalidInput(
+            "--convergence needs --out DIR (the levels and the reports go there)".to_string(),
+        ));
     };
     let options = simulate::convergence::ConvergenceOptions {
         levels,
@@ -69,33 +107,32 @@ fn convergence(cli: &Cli, levels: usize) -> ExitCode {
         quiet: cli.quiet,
     };
     let result = simulate::convergence::run_convergence(&cli.problem, &options).and_then(|study| {
-        println!("{}", simulate::convergence::report::table(&study));
-        simulate::convergence::report::write_files(&out, &study)
+        outln!("{}", simulate::convergence::report::table(&study))?;
+        let written = simulate::convergence::report::write_files(&out, &study)?;
+        for path in written {
+            outln!("wrote {}", path.display())?;
+        }
+        Ok(())
     });
     match result {
-        Ok(written) => {
-            for path in written {
-                println!("wrote {}", path.display());
-            }
-            ExitCode::SUCCESS
-        }
-        Err(error) => {
-            eprintln!("simulate: {error}");
-            ExitCode::FAILURE
-        }
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => fail(&error),
     }
 }
 
 fn main() -> ExitCode {
-    let cli = Cli::parse();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(error) => return clap_exit(&error),
+    };
     if let Err(error) = contact_input::threads::set_threads(cli.threads) {
-        eprintln!("simulate: {error}");
-        return ExitCode::FAILURE;
+        return fail(&error);
     }
     if let Some(gib) = cli.memory_limit {
         if !(gib.is_finite() && gib > 0.0) {
-            eprintln!("simulate: --memory-limit {gib}: must be a positive number of GiB");
-            return ExitCode::FAILURE;
+            return fail(&InputError::InvalidInput(format!(
+                "--memory-limit {gib}: must be a positive number of GiB"
+            )));
         }
     }
     if let Some(levels) = cli.convergence {
@@ -105,14 +142,18 @@ fn main() -> ExitCode {
     let flag = interrupt.clone();
     let handler = ctrlc::set_handler(move || {
         if flag.swap(true, Ordering::SeqCst) {
-            eprintln!("simulate: second interrupt, stopping now");
+            // standard error may be gone too: the status says it all
+            let _ = errln!("simulate: second interrupt, stopping now");
             std::process::exit(130);
         }
-        eprintln!("simulate: interrupt, finishing the step in progress (Ctrl-C again to stop now)");
+        let _ = errln!(
+            "simulate: interrupt, finishing the step in progress (Ctrl-C again to stop now)"
+        );
     });
     if let Err(error) = handler {
-        eprintln!("simulate: cannot install the Ctrl-C handler: {error}");
-        return ExitCode::FAILURE;
+        return fail(&InputError::InvalidInput(format!(
+            "cannot install the Ctrl-C handler: {error}"
+        )));
     }
     let options = RunOptions {
         out: cli.out,
@@ -125,26 +166,37 @@ fn main() -> ExitCode {
             .memory_limit
             .map(|gib| gib * contact_damage::algebra::memory::GIB),
     };
-    match simulate::run_file(&cli.problem, &options) {
-        Ok(outcome) if outcome.interrupted => {
-            println!(
+    let result = simulate::run_file(&cli.problem, &options).and_then(|outcome| {
+        report(&outcome)?;
+        Ok(outcome)
+    });
+    match result {
+        Ok(outcome) if outcome.interrupted => ExitCode::from(130),
+        Ok(_) => ExitCode::SUCCESS,
+        Err(error) => fail(&error),
+    }
+}
+
+/// The last line of a run: how it ended and where its output is.
+fn report(outcome: &simulate::run::RunOutcome) -> Result<(), InputError> {
+    match outcome {
+        outcome if outcome.interrupted => {
+            outln!(
                 "interrupted after step {} ({:.1} s); output in {}; continue with --resume",
                 outcome.last_step,
                 outcome.seconds,
                 outcome.output_dir.display()
-            );
-            ExitCode::from(130)
+            )?;
         }
-        Ok(outcome) if outcome.last_step <= outcome.started_from => {
-            println!(
+        outcome if outcome.last_step <= outcome.started_from => {
+            outln!(
                 "nothing to do: the run in {} already reached step {}; output unchanged",
                 outcome.output_dir.display(),
                 outcome.started_from
-            );
-            ExitCode::SUCCESS
+            )?;
         }
-        Ok(outcome) => {
-            println!(
+        outcome => {
+            outln!(
                 "steps {}..{} in {:.1} s, max KKT {:.1e} (velocity) {:.1e} (damage); output in {}",
                 outcome.started_from + 1,
                 outcome.last_step,
@@ -152,12 +204,8 @@ fn main() -> ExitCode {
                 outcome.max_kkt.velocity,
                 outcome.max_kkt.damage,
                 outcome.output_dir.display()
-            );
-            ExitCode::SUCCESS
-        }
-        Err(error) => {
-            eprintln!("simulate: {error}");
-            ExitCode::FAILURE
+            )?;
         }
     }
+    Ok(())
 }

@@ -192,7 +192,7 @@ pub fn run<const D: usize>(
     )?;
     let mut simulation = Simulation::new(setup.problem.clone())?;
     let (mut time_loop, mut progress) = StepLoop::prepare(setup, options, &mut simulation, dir)?;
-    time_loop.print_start(&simulation);
+    time_loop.print_start(&simulation)?;
     while simulation.state().step < time_loop.last_step {
         let outcome = simulation
             .step()
@@ -395,12 +395,12 @@ impl<'a, const D: usize> StepLoop<'a, D> {
     }
 
     /// The first progress line: the problem, its size, N, k and the stability limit.
-    fn print_start(&self, simulation: &Simulation<D>) {
+    fn print_start(&self, simulation: &Simulation<D>) -> Result<(), InputError> {
         if self.options.quiet {
-            return;
+            return Ok(());
         }
         let (space, steps, started_from) = (&self.space, self.steps, self.started_from);
-        println!(
+        contact_input::outln!(
             "{}: d = {D}, l = {}, {} cells, {} nodes, {} contact nodes, N = {steps}, k = {:e} (stability limit {:.3e}){}",
             self.setup.name,
             space.degree(),
@@ -414,7 +414,8 @@ impl<'a, const D: usize> StepLoop<'a, D> {
             } else {
                 String::new()
             }
-        );
+        )?;
+        Ok(())
     }
 
     /// What follows the step just done by `simulation` with `outcome`: its row of
@@ -505,10 +506,10 @@ impl<'a, const D: usize> StepLoop<'a, D> {
                 },
                 &mut progress.saved_steps,
             )?;
-            self.print_saved_step(state, &row);
+            self.print_saved_step(state, &row)?;
         }
         if progress.interrupted && !self.options.quiet {
-            println!("interrupted: step {n} is saved; continue with --resume",);
+            contact_input::outln!("interrupted: step {n} is saved; continue with --resume")?;
         }
         Ok(())
     }
@@ -527,15 +528,15 @@ impl<'a, const D: usize> StepLoop<'a, D> {
 
     /// The progress line of a saved step: its iterations, KKT residuals, contact status and
     /// mean damage, and the time taken and left.
-    fn print_saved_step(&self, state: &State, row: &HistoryRow) {
+    fn print_saved_step(&self, state: &State, row: &HistoryRow) -> Result<(), InputError> {
         if self.options.quiet {
-            return;
+            return Ok(());
         }
         let (n, steps) = (state.step, self.steps);
         let elapsed = self.clock.elapsed().as_secs_f64();
         let done = n - self.started_from;
         let left = elapsed / done as f64 * (self.last_step - n) as f64;
-        println!(
+        contact_input::outln!(
             "step {n:>6}/{steps}  t = {:<10.4e} Newton {:>2}  friction {:>3}  damage {:>3}  KKT {:.1e}/{:.1e}  contact {}/{}/{} (sep/stick/slip)  β̄ = {:.4}  {elapsed:.1} s, ≈ {left:.1} s left",
             state.time,
             row.newton_iterations,
@@ -547,7 +548,8 @@ impl<'a, const D: usize> StepLoop<'a, D> {
             row.stick,
             row.slip,
             row.mean_damage,
-        );
+        )?;
+        Ok(())
     }
 
     /// Ends the run: both CSV files synced, `contact_history.svg` drawn from the whole contact

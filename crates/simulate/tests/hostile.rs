@@ -397,3 +397,74 @@ fn problems_too_large_for_the_memory_are_refused_before_allocating() {
         assert!(!out.exists());
     }
 }
+
+/// `/dev/full`, opened for writing: every write fails with ENOSPC.
+fn full_disk() -> std::process::Stdio {
+    std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .unwrap()
+        .into()
+}
+
+/// The write end of a pipe whose read end is already closed: every write fails with EPIPE.
+/// (The read end belongs to a `true` process, which has exited when this returns.)
+fn closed_pipe() -> std::process::Stdio {
+    let mut reader = Command::new("true")
+        .stdin(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let writer = reader.stdin.take().unwrap();
+    assert!(reader.wait().unwrap().success());
+    writer.into()
+}
+
+/// Runs `simulate args` with standard output `stdout`.
+fn simulate_into(args: &[&std::ffi::OsStr], stdout: std::process::Stdio) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_simulate"))
+        .args(args)
+        .stdout(stdout)
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap()
+        .wait_with_output()
+        .unwrap()
+}
+
+#[test]
+fn a_full_standard_output_is_an_error_naming_it_not_a_panic() {
+    let dir = scratch("hostile-dev-full");
+    let problem = small_problem(&dir);
+    let out = dir.join("out");
+    let help = simulate_into(&["--help".as_ref()], full_disk());
+    let run = simulate_into(
+        &[problem.as_os_str(), "--out".as_ref(), out.as_os_str()],
+        full_disk(),
+    );
+    for (what, output) in [("--help", help), ("a run", run)] {
+        let message = stderr(&output);
+        assert!(!message.contains("panicked"), "{what}: {message}");
+        assert_eq!(output.status.code(), Some(1), "{what}: {message}");
+        assert!(
+            message.contains("standard output") && message.contains("No space left on device"),
+            "{what}: {message}"
+        );
+    }
+}
+
+#[test]
+fn a_closed_standard_output_ends_quietly_with_status_141() {
+    let dir = scratch("hostile-closed-pipe");
+    let problem = small_problem(&dir);
+    let out = dir.join("out");
+    let help = simulate_into(&["--help".as_ref()], closed_pipe());
+    let run = simulate_into(
+        &[problem.as_os_str(), "--out".as_ref(), out.as_os_str()],
+        closed_pipe(),
+    );
+    for (what, output) in [("--help", help), ("a run", run)] {
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(141), "{what}: {message}");
+        assert!(message.is_empty(), "{what}: {message}");
+    }
+}

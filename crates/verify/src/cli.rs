@@ -9,6 +9,7 @@ use crate::sweep::run::{execute, Executed};
 use crate::sweep::shard::{parse_shard, shard};
 use crate::InputError;
 use clap::Parser;
+use contact_input::outln;
 pub use contact_input::threads::{max_threads, set_threads};
 use std::path::{Path, PathBuf};
 
@@ -341,8 +342,9 @@ pub fn study_table(study: &StudyResult) -> String {
 }
 
 /// Prints the table of a study ([`study_table`]) to stdout.
-pub fn print_study(study: &StudyResult) {
-    println!("\n{}", study_table(study));
+pub fn print_study(study: &StudyResult) -> Result<(), InputError> {
+    outln!("\n{}", study_table(study))?;
+    Ok(())
 }
 
 /// Checks the options of a study, then plans it; returns the manifest and the report folder.
@@ -468,30 +470,33 @@ fn merge_and_report(
 ) -> Result<Outcome, InputError> {
     let merged = merge(manifest, results)?;
     if !merged.problems.is_empty() {
-        println!(
+        outln!(
             "{} runs without a valid result (run them with `verify run`, then merge again):",
             merged.problems.len()
-        );
+        )?;
         for problem in &merged.problems {
-            println!("  {problem}");
+            outln!("  {problem}")?;
         }
-        println!("no reports written");
-        println!("verdict: INCOMPLETE");
+        outln!("no reports written")?;
+        outln!("verdict: INCOMPLETE")?;
         return Ok(Outcome::Failure);
     }
     for study in &merged.studies {
-        print_study(study);
+        print_study(study)?;
     }
     let written = write_study_reports(out, manifest, &merged.studies)?;
-    println!(
+    outln!(
         "\ncase {} ({}), d = {}, l = {}",
-        manifest.case, manifest.origin, manifest.dim, manifest.degree
-    );
+        manifest.case,
+        manifest.origin,
+        manifest.dim,
+        manifest.degree
+    )?;
     for path in written {
-        println!("wrote {}", path.display());
+        outln!("wrote {}", path.display())?;
     }
     let verdict = merged.verdict();
-    println!("verdict: {} ({})", verdict.label(), verdict.explanation());
+    outln!("verdict: {} ({})", verdict.label(), verdict.explanation())?;
     Ok(Outcome::of(verdict))
 }
 
@@ -504,12 +509,12 @@ pub fn main_with(cli: Cli) -> Result<Outcome, InputError> {
             let path = manifest.unwrap_or_else(|| out.join("manifest.json"));
             write_manifest(&path, &planned)?;
             let cost: f64 = planned.runs.iter().map(|r| r.cost).sum();
-            println!(
+            outln!(
                 "wrote {} (estimated cost {cost:.3e} unknowns × steps)",
                 path.display()
-            );
+            )?;
             // for scripts: the size of a job array
-            println!("runs: {}", planned.runs.len());
+            outln!("runs: {}", planned.runs.len())?;
             Ok(Outcome::Success)
         }
         Some(Command::Run {
@@ -536,12 +541,12 @@ pub fn main_with(cli: Cli) -> Result<Outcome, InputError> {
             };
             let results = results_folder(&manifest, results);
             let executed = execute_manifest(&planned, &selection, &results, fresh)?;
-            println!(
+            outln!(
                 "cached: {} runs, computed: {} runs (results in {})",
                 executed.cached,
                 executed.computed,
                 results.display()
-            );
+            )?;
             Ok(Outcome::Success)
         }
         Some(Command::Baseline {
@@ -580,14 +585,14 @@ fn run_in_process(args: &StudyArgs, fresh: bool) -> Result<Outcome, InputError> 
     let results = out.join("runs");
     let all: Vec<usize> = (0..manifest.runs.len()).collect();
     let executed = execute_manifest(&manifest, &all, &results, fresh)?;
-    println!(
+    outln!(
         "cached: {} runs, computed: {} runs (results in {})",
         executed.cached,
         executed.computed,
         results.display()
-    );
+    )?;
     let outcome = merge_and_report(&manifest, &results, &out)?;
-    println!("{:.1} s", started.elapsed().as_secs_f64());
+    outln!("{:.1} s", started.elapsed().as_secs_f64())?;
     Ok(outcome)
 }
 
@@ -681,9 +686,9 @@ fn regenerate_baseline(
             });
         }
     }
-    println!("\nbaseline:");
+    outln!("\nbaseline:")?;
     for line in lines {
-        println!("  {line}");
+        outln!("  {line}")?;
     }
     Ok(verdicts.into_iter().max().unwrap_or(Outcome::Success))
 }

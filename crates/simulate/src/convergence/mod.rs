@@ -302,11 +302,11 @@ pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Stud
         let refinements = level.mesh.gmsh.as_ref().map(|g| g.refinements);
         let steps = level.steps;
         if !options.quiet {
-            println!(
+            contact_input::outln!(
                 "level {index}: {}, steps {steps} → {}",
                 mesh_label(&cells, refinements),
                 dir.display()
-            );
+            )?;
         }
         let run_options = RunOptions {
             out: Some(dir.clone()),

@@ -41,7 +41,8 @@ fn has_result(results: &Path, run: &PlannedRun, invalid: &mut Vec<(String, Strin
         Stored::Valid(()) => true,
         Stored::Missing => false,
         Stored::Invalid(reason) => {
-            eprintln!(
+            // a notice: when standard error is gone, the run goes on without it
+            let _ = contact_input::errln!(
                 "run {}: invalid result {}: {reason}; recomputing",
                 run.id,
                 result_path(results, run).display()
@@ -84,11 +85,11 @@ fn reference<const D: usize>(
                 .step_by(stride)
                 .collect();
             store_states(results, run, &states)?;
-            println!(
+            contact_input::outln!(
                 "computed run {} in {:.2} s",
                 run.id,
                 started.elapsed().as_secs_f64()
-            );
+            )?;
             states
         }
     };
@@ -121,10 +122,11 @@ fn compute<const D: usize>(
     };
     let result = run_one(case, manifest.degree, run.cells, run.steps, against)?;
     store_run(results, run, &result)?;
-    println!(
+    contact_input::outln!(
         "computed run {} in {:.2} s",
-        run.id, result.stats.wall_seconds
-    );
+        run.id,
+        result.stats.wall_seconds
+    )?;
     Ok(())
 }
 
