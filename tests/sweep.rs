@@ -371,10 +371,27 @@ fn a_bad_manifest_index_or_shard_gets_a_clear_error() {
         &["run", "--manifest", &path, "--index", "9"],
         "--index 9: the manifest has 2 runs",
     );
+    fails(
+        &[
+            "run",
+            "--manifest",
+            &path,
+            "--index",
+            "18446744073709551615",
+        ],
+        "--index 18446744073709551615: the manifest has 2 runs (0 ..= 1)",
+    );
     for shard in ["2/2", "1", "x/3", "0/0"] {
         fails(
             &["run", "--manifest", &path, "--shard", shard],
             &format!("--shard `{shard}`"),
+        );
+    }
+    // a share count is bounded by the runs before it sizes anything
+    for shard in ["0/3", "0/100000000000", "0/18446744073709551615"] {
+        fails(
+            &["run", "--manifest", &path, "--shard", shard],
+            &format!("--shard `{shard}`: N = {} is above the 2 runs of the manifest; N must be at most 2", &shard[2..]),
         );
     }
     fails(&["run", "--manifest", &path], "--index");

@@ -105,6 +105,9 @@ fn convergence(cli: &Cli, levels: usize) -> ExitCode {
         out: out.clone(),
         overwrite: cli.overwrite,
         quiet: cli.quiet,
+        memory_limit: cli
+            .memory_limit
+            .map(|gib| gib * contact_damage::algebra::memory::GIB),
     };
     let result = simulate::convergence::run_convergence(&cli.problem, &options).and_then(|study| {
         outln!("{}", simulate::convergence::report::table(&study))?;

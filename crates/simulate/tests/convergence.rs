@@ -210,3 +210,59 @@ fn bad_requests_are_refused_with_a_clear_message() {
     assert!(stderr.contains("use --ratio 2"), "{stderr}");
     assert!(!out.join("level_0").exists());
 }
+
+#[test]
+fn the_size_of_every_level_is_checked_before_any_level_is_built() {
+    let scratch = tempfile::tempdir().unwrap();
+    let problem = small_problem(scratch.path());
+    let out = scratch.path().join("study");
+    let p = problem.to_str().unwrap();
+    let o = out.to_str().unwrap();
+    for (args, messages) in [
+        // level 2 (32 × 16 cells) is above a limit of 1 MiB: refused before level 0 runs
+        (
+            vec![
+                "--convergence",
+                "3",
+                p,
+                "--out",
+                o,
+                "--memory-limit",
+                "0.001",
+            ],
+            vec![
+                "--convergence 3: level 2 (cells [32, 16])",
+                "--memory-limit",
+            ],
+        ),
+        // the finest level of 40 would have 8 × 2³⁹ cells per axis: refused at once
+        (
+            vec!["--convergence", "40", p, "--out", o],
+            vec!["--convergence 40: at most 16 levels"],
+        ),
+        (
+            vec!["--convergence", "18446744073709551615", p, "--out", o],
+            vec!["at most 16 levels"],
+        ),
+        // 16 levels are allowed, but the finest (8 × 2¹⁵ by 4 × 2¹⁵ cells) needs far more
+        // than the default limit
+        (
+            vec!["--convergence", "16", p, "--out", o],
+            vec![
+                "--convergence 16: level 15 (cells [262144, 131072])",
+                "above the limit",
+            ],
+        ),
+    ] {
+        let output = simulate(&args);
+        let stderr = String::from_utf8_lossy(&output.stderr);
+        assert_eq!(output.status.code(), Some(1), "{args:?}: {stderr}");
+        for message in messages {
+            assert!(
+                stderr.contains(message),
+                "{args:?}: `{message}` not in {stderr}"
+            );
+        }
+        assert!(!out.exists(), "{args:?}: {} was created", out.display());
+    }
+}

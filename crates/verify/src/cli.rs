@@ -528,9 +528,16 @@ pub fn main_with(cli: Cli) -> Result<Outcome, InputError> {
             set_threads(threads)?;
             let planned = read_manifest(&manifest)?;
             let selection = match (index, share) {
+                (Some(index), _) if index >= planned.runs.len() => {
+                    return Err(InputError::InvalidInput(format!(
+                        "--index {index}: the manifest has {} runs (0 ..= {})",
+                        planned.runs.len(),
+                        planned.runs.len().saturating_sub(1)
+                    )))
+                }
                 (Some(index), _) => vec![index],
                 (None, Some(text)) => {
-                    let (i, n) = parse_shard(&text)?;
+                    let (i, n) = parse_shard(&text, planned.runs.len())?;
                     shard(&planned, i, n)
                 }
                 (None, None) => {

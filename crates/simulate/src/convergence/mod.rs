@@ -18,7 +18,7 @@ pub mod gci;
 pub mod report;
 
 use crate::history::HISTORY_FILE;
-use crate::problem::{read_problem_file, ProblemFile, ProblemSetup};
+use crate::problem::{read_problem_file, ProblemFile, ProblemSetup, MAX_REFINEMENTS};
 use crate::run::{run, RunOptions};
 use contact_input::InputError;
 use gci::{least_squares, triplets, LeastSquares, Triplet};
@@ -40,7 +40,14 @@ pub struct ConvergenceOptions {
     pub overwrite: bool,
     /// No progress lines.
     pub quiet: bool,
+    /// Largest estimated memory of a level, in bytes (`--memory-limit`; default: the physical
+    /// memory).
+    pub memory_limit: Option<f64>,
 }
+
+/// The most levels of a study (`--convergence`): with the smallest whole ratio, 2, the finest
+/// of 16 levels has 2¹⁵ times the cells per axis of the coarsest.
+pub const MAX_LEVELS: usize = 16;
 
 /// One level of the study.
 #[derive(Debug, Clone, Serialize)]
@@ -256,6 +263,12 @@ pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Stud
             options.levels
         )));
     }
+    if options.levels > MAX_LEVELS {
+        return Err(invalid(format!(
+            "--convergence {}: at most {MAX_LEVELS} levels (each multiplies the cells per axis by --ratio)",
+            options.levels
+        )));
+    }
     if !(options.ratio.is_finite() && options.ratio > 1.0) {
         return Err(invalid(format!(
             "--ratio: must be a number > 1, got {}",
@@ -276,7 +289,36 @@ pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Stud
     let files: Vec<ProblemFile> = (0..options.levels)
         .map(|i| level_file(&file, &origin, options.ratio, i))
         .collect::<Result<_, _>>()?;
-    // every level is built and checked (e.g. a box too large to allocate) before the first run
+    // the size of every level is checked from its file, finest first, before any mesh is built
+    let limit = RunOptions {
+        memory_limit: options.memory_limit,
+        ..RunOptions::default()
+    }
+    .memory_limit();
+    for (index, level) in files.iter().enumerate().rev() {
+        if let Some(gmsh) = &level.mesh.gmsh {
+            if gmsh.refinements > MAX_REFINEMENTS {
+                return Err(invalid(format!(
+                    "--convergence {}: level {index} would refine the Gmsh mesh {} times, above the limit of {MAX_REFINEMENTS} (mesh.gmsh.refinements + level); use fewer levels",
+                    options.levels, gmsh.refinements
+                )));
+            }
+        }
+        if let Some(mesh) = &level.mesh.box_mesh {
+            contact_damage::algebra::memory::check(
+                contact_damage::algebra::memory::estimate_box(&mesh.cells, level.degree),
+                limit,
+                &format!(
+                    "--convergence {}: level {index} ({}) of {origin}",
+                    options.levels,
+                    mesh_label(&mesh.cells, None)
+                ),
+                "--memory-limit",
+            )?;
+        }
+    }
+    // every level is built and checked (e.g. a Gmsh mesh refined beyond the memory) before the
+    // first run
     for level in &files {
         match level.dim {
             2 => drop(ProblemSetup::<2>::new(level.clone(), path)?),
@@ -312,6 +354,7 @@ pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Stud
             out: Some(dir.clone()),
             overwrite: options.overwrite,
             quiet: options.quiet,
+            memory_limit: options.memory_limit,
             ..RunOptions::default()
         };
         let (h, outcome) = match level.dim {

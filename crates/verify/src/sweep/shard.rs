@@ -3,8 +3,10 @@
 use crate::sweep::plan::{Manifest, PlannedRun};
 use crate::InputError;
 
-/// Parses `--shard I/N` (0 ≤ I < N).
-pub fn parse_shard(text: &str) -> Result<(usize, usize), InputError> {
+/// Parses `--shard I/N` (0 ≤ I < N) for a manifest of `runs` runs: N is at most `runs` (a
+/// share beyond them would hold no run), so that no count from the command line sizes an
+/// allocation.
+pub fn parse_shard(text: &str, runs: usize) -> Result<(usize, usize), InputError> {
     let refuse = || {
         InputError::InvalidInput(format!(
             "--shard `{text}`: expected I/N with 0 ≤ I < N, e.g. 0/4"
@@ -15,6 +17,11 @@ pub fn parse_shard(text: &str) -> Result<(usize, usize), InputError> {
     let n: usize = n.trim().parse().map_err(|_| refuse())?;
     if n == 0 || i >= n {
         return Err(refuse());
+    }
+    if n > runs {
+        return Err(InputError::InvalidInput(format!(
+            "--shard `{text}`: N = {n} is above the {runs} runs of the manifest; N must be at most {runs} (a share beyond the runs would hold none)"
+        )));
     }
     Ok((i, n))
 }
@@ -79,9 +86,17 @@ mod tests {
 
     #[test]
     fn bad_shards_are_refused() {
-        for text in ["3/3", "1", "a/2", "0/0", "-1/2"] {
-            assert!(parse_shard(text).is_err(), "{text}");
+        for text in [
+            "3/3",
+            "1",
+            "a/2",
+            "0/0",
+            "-1/2",
+            "0/6",
+            "0/18446744073709551615",
+        ] {
+            assert!(parse_shard(text, 5).is_err(), "{text}");
         }
-        assert_eq!(parse_shard("2/5").unwrap(), (2, 5));
+        assert_eq!(parse_shard("2/5", 5).unwrap(), (2, 5));
     }
 }
