@@ -565,3 +565,120 @@ fn a_closed_standard_output_ends_quietly_with_status_141() {
         assert!(stderr.is_empty(), "{args:?}: {stderr}");
     }
 }
+
+/// Runs `verify args` (with `CI` set); returns the status, stdout and stderr.
+fn verify_args(args: &[&std::ffi::OsStr]) -> (Option<i32>, String, String) {
+    let output = verify().args(args).env("CI", "1").output().unwrap();
+    (
+        output.status.code(),
+        String::from_utf8_lossy(&output.stdout).into_owned(),
+        String::from_utf8_lossy(&output.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn no_command_replaces_a_report_it_did_not_write() {
+    let dir = scratch("user-files");
+    let out = dir.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    let mine = [("report.md", "my notes\n"), ("errors.csv", "my,table\n")];
+    for (name, text) in mine {
+        std::fs::write(out.join(name), text).unwrap();
+    }
+    let study = |out: &std::path::Path, extra: &[&str]| {
+        let mut args: Vec<std::ffi::OsString> = ["--levels", "2", "--studies", "h", "--out"]
+            .map(Into::into)
+            .to_vec();
+        args.push(out.as_os_str().to_owned());
+        args.extend(extra.iter().map(Into::into));
+        let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_os_str()).collect();
+        verify_args(&args)
+    };
+    // a plain run: refused before any work, naming both files, which are kept
+    let (status, stdout, stderr) = study(&out, &[]);
+    assert_eq!(status, Some(2), "{stdout}\n{stderr}");
+    for (name, text) in mine {
+        let path = out.join(name).display().to_string();
+        assert!(stderr.contains(&format!("`{path}`")), "{path}: {stderr}");
+        assert_eq!(std::fs::read_to_string(out.join(name)).unwrap(), text);
+    }
+    assert!(stderr.contains("--overwrite"), "{stderr}");
+    assert!(!out.join("manifest.json").exists() && !out.join("runs").exists());
+
+    // `plan` refuses a manifest of the user
+    let planned = dir.join("planned");
+    std::fs::create_dir_all(&planned).unwrap();
+    std::fs::write(planned.join("manifest.json"), "{}\n").unwrap();
+    let plan = |extra: &[&str]| {
+        let mut args: Vec<std::ffi::OsString> =
+            ["plan", "--levels", "2", "--studies", "h", "--out"]
+                .map(Into::into)
+                .to_vec();
+        args.push(planned.as_os_str().to_owned());
+        args.extend(extra.iter().map(Into::into));
+        let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_os_str()).collect();
+        verify_args(&args)
+    };
+    let (status, _, stderr) = plan(&[]);
+    assert_eq!(status, Some(2), "{stderr}");
+    assert!(stderr.contains("manifest.json`"), "{stderr}");
+    assert_eq!(
+        std::fs::read_to_string(planned.join("manifest.json")).unwrap(),
+        "{}\n"
+    );
+    let (status, _, stderr) = plan(&["--overwrite"]);
+    assert_eq!(status, Some(0), "{stderr}");
+    // a manifest verify wrote may be written again
+    let (status, _, stderr) = plan(&[]);
+    assert_eq!(status, Some(0), "{stderr}");
+
+    // `merge` refuses a report of the user beside the manifest, before writing any report
+    let manifest = planned.join("manifest.json");
+    let (status, _, stderr) = verify_args(&[
+        "run".as_ref(),
+        "--manifest".as_ref(),
+        manifest.as_os_str(),
+        "--shard".as_ref(),
+        "0/1".as_ref(),
+    ]);
+    assert_eq!(status, Some(0), "{stderr}");
+    std::fs::write(planned.join("report.md"), "my notes\n").unwrap();
+    let merge = |extra: &[&str]| {
+        let mut args: Vec<std::ffi::OsString> = vec!["merge".into(), "--manifest".into()];
+        args.push(manifest.as_os_str().to_owned());
+        args.extend(extra.iter().map(Into::into));
+        let args: Vec<&std::ffi::OsStr> = args.iter().map(|a| a.as_os_str()).collect();
+        verify_args(&args)
+    };
+    let (status, _, stderr) = merge(&[]);
+    assert_eq!(status, Some(2), "{stderr}");
+    assert!(stderr.contains("report.md`"), "{stderr}");
+    assert_eq!(
+        std::fs::read_to_string(planned.join("report.md")).unwrap(),
+        "my notes\n"
+    );
+    assert!(!planned.join("errors.csv").exists());
+    // (two levels are too few to certify a rate: DRIFTING, status 3)
+    let (status, _, stderr) = merge(&["--overwrite"]);
+    assert_eq!(status, Some(3), "{stderr}");
+    assert_ne!(
+        std::fs::read_to_string(planned.join("report.md")).unwrap(),
+        "my notes\n"
+    );
+
+    // a plain run into a fresh folder, run again, replaces its own reports; a report edited
+    // since is the user's and refused
+    let fresh = dir.join("fresh");
+    for _ in 0..2 {
+        let (status, stdout, stderr) = study(&fresh, &[]);
+        assert_eq!(status, Some(3), "{stdout}\n{stderr}");
+    }
+    std::fs::write(fresh.join("tables.tex"), "% my edits\n").unwrap();
+    let (status, _, stderr) = study(&fresh, &[]);
+    assert_eq!(status, Some(2), "{stderr}");
+    assert!(stderr.contains("tables.tex`"), "{stderr}");
+    assert_eq!(
+        std::fs::read_to_string(fresh.join("tables.tex")).unwrap(),
+        "% my edits\n"
+    );
+}

@@ -9,6 +9,7 @@
 //! - [`output`]: atomic writing of output files (raw bytes, JSON, CSV), missing values;
 //! - [`console`]: writing to standard output and error without panicking;
 //! - [`threads`]: the `--threads` option;
+//! - [`written`]: which files of a folder a program wrote, so that it replaces no other;
 //! - [`number`]: numbers in messages, printed short;
 //! - [`mutation`]: hostile edits of input text for the parsers' robustness tests;
 //! - [`error`]: the error type, naming file, key or line; the file kind ("case" or
@@ -25,5 +26,6 @@ pub mod output;
 pub mod scheme;
 pub mod sides;
 pub mod threads;
+pub mod written;
 
 pub use error::{FileKind, InputError};

@@ -266,3 +266,41 @@ fn the_size_of_every_level_is_checked_before_any_level_is_built() {
         assert!(!out.exists(), "{args:?}: {} was created", out.display());
     }
 }
+
+#[test]
+fn a_report_of_the_user_in_out_is_never_replaced_without_overwrite() {
+    let scratch = tempfile::tempdir().unwrap();
+    let problem = small_problem(scratch.path());
+    let out = scratch.path().join("study");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("report.md"), "my notes\n").unwrap();
+    std::fs::write(out.join("notes.txt"), "kept\n").unwrap();
+    let (p, o) = (problem.to_str().unwrap(), out.to_str().unwrap());
+    let output = simulate(&["--convergence", "3", p, "--out", o, "-q"]);
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(1), "{stderr}");
+    assert!(
+        stderr.contains("`report.md`") && stderr.contains("--overwrite"),
+        "{stderr}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("report.md")).unwrap(),
+        "my notes\n"
+    );
+    assert!(!out.join("level_0").exists(), "a level ran");
+    // --overwrite replaces the report names only
+    let output = simulate(&["--convergence", "3", p, "--out", o, "-q", "--overwrite"]);
+    assert!(
+        output.status.success(),
+        "{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert_ne!(
+        std::fs::read_to_string(out.join("report.md")).unwrap(),
+        "my notes\n"
+    );
+    assert_eq!(
+        std::fs::read_to_string(out.join("notes.txt")).unwrap(),
+        "kept\n"
+    );
+}

@@ -113,6 +113,10 @@ pub struct StudyArgs {
     /// memory of the machine).
     #[arg(long, value_name = "GiB")]
     pub memory_limit: Option<f64>,
+    /// Replace files in the output folder of the names verify writes that verify did not write
+    /// there (or that changed since); other files are never touched.
+    #[arg(long)]
+    pub overwrite: bool,
 }
 
 /// The subcommands for studies beyond one process.
@@ -181,6 +185,10 @@ pub enum Command {
         /// Where to write the reports (default: the manifest's folder).
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Replace report files in the output folder that verify did not write there (or that
+        /// changed since); other files are never touched.
+        #[arg(long)]
+        overwrite: bool,
     },
 }
 
@@ -347,6 +355,37 @@ pub fn print_study(study: &StudyResult) -> Result<(), InputError> {
     Ok(())
 }
 
+/// The names of the files a merge of `manifest` writes into its output folder (the reports).
+fn report_names(manifest: &Manifest) -> Vec<String> {
+    let mut names: Vec<String> = [
+        "errors.csv",
+        "rates.csv",
+        "summary.json",
+        "report.md",
+        "tables.tex",
+    ]
+    .map(String::from)
+    .to_vec();
+    for study in &manifest.studies {
+        names.push(format!("{}-l{}.svg", study.kind.name(), manifest.degree));
+    }
+    names
+}
+
+/// The folder and name of a file path (the folder `.` for a bare name).
+fn folder_and_name(path: &Path) -> (PathBuf, Vec<String>) {
+    let folder = match path.parent() {
+        Some(parent) if !parent.as_os_str().is_empty() => parent.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .into_iter()
+        .collect();
+    (folder, name)
+}
+
 /// Checks the options of a study, then plans it; returns the manifest and the report folder.
 fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), InputError> {
     if !(1..=2).contains(&args.order) {
@@ -469,6 +508,11 @@ fn merge_and_report(
     out: &Path,
 ) -> Result<Outcome, InputError> {
     let merged = merge(manifest, results)?;
+    let folder = if out.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        out
+    };
     if !merged.problems.is_empty() {
         outln!(
             "{} runs without a valid result (run them with `verify run`, then merge again):",
@@ -485,6 +529,7 @@ fn merge_and_report(
         print_study(study)?;
     }
     let written = write_study_reports(out, manifest, &merged.studies)?;
+    contact_input::written::record(folder, &written)?;
     outln!(
         "\ncase {} ({}), d = {}, l = {}",
         manifest.case,
@@ -507,7 +552,10 @@ pub fn main_with(cli: Cli) -> Result<Outcome, InputError> {
         Some(Command::Plan { study, manifest }) => {
             let (planned, out) = plan_study(&study)?;
             let path = manifest.unwrap_or_else(|| out.join("manifest.json"));
+            let (folder, name) = folder_and_name(&path);
+            contact_input::written::check_replaceable(&folder, &name, study.overwrite)?;
             write_manifest(&path, &planned)?;
+            contact_input::written::record(&folder, std::slice::from_ref(&path))?;
             let cost: f64 = planned.runs.iter().map(|r| r.cost).sum();
             outln!(
                 "wrote {} (estimated cost {cost:.3e} unknowns × steps)",
@@ -568,6 +616,7 @@ pub fn main_with(cli: Cli) -> Result<Outcome, InputError> {
             manifest,
             results,
             out,
+            overwrite,
         }) => {
             let planned = read_manifest(&manifest)?;
             let results = results_folder(&manifest, results);
@@ -576,6 +625,12 @@ pub fn main_with(cli: Cli) -> Result<Outcome, InputError> {
             if !out.as_os_str().is_empty() {
                 check_out(&out)?;
             }
+            let folder = if out.as_os_str().is_empty() {
+                Path::new(".")
+            } else {
+                &out
+            };
+            contact_input::written::check_replaceable(folder, &report_names(&planned), overwrite)?;
             merge_and_report(&planned, &results, &out)
         }
     }
@@ -586,9 +641,13 @@ pub fn main_with(cli: Cli) -> Result<Outcome, InputError> {
 fn run_in_process(args: &StudyArgs, fresh: bool) -> Result<Outcome, InputError> {
     let (manifest, out) = plan_study(args)?;
     check_out(&out)?;
+    let mut names = report_names(&manifest);
+    names.push("manifest.json".to_string());
+    contact_input::written::check_replaceable(&out, &names, args.overwrite)?;
     let started = std::time::Instant::now();
     let path = out.join("manifest.json");
     write_manifest(&path, &manifest)?;
+    contact_input::written::record(&out, std::slice::from_ref(&path))?;
     let results = out.join("runs");
     let all: Vec<usize> = (0..manifest.runs.len()).collect();
     let executed = execute_manifest(&manifest, &all, &results, fresh)?;
@@ -663,6 +722,8 @@ fn regenerate_baseline(
                 // the pool is set up once, above
                 threads: None,
                 memory_limit: None,
+                // regenerating the baseline replaces its files, and only those
+                overwrite: true,
             };
             verdicts.push(run_in_process(&args, fresh)?);
             let new = BaselineErrors::read(&errors)?;

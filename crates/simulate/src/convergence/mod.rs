@@ -255,6 +255,33 @@ fn coarse_step(t: f64, final_time: f64, steps: usize) -> Result<usize, InputErro
     Ok(n as usize)
 }
 
+/// Refuses, unless `overwrite`, an output folder `out` that holds a file (or anything else) of
+/// one of the report `names`; refuses an `out` that exists and is no folder.
+fn check_fresh_reports(out: &Path, names: &[String], overwrite: bool) -> Result<(), InputError> {
+    if out.exists() && !out.is_dir() {
+        return Err(invalid(format!(
+            "output folder `{}` (--out) exists and is not a folder; choose another --out",
+            out.display()
+        )));
+    }
+    if overwrite {
+        return Ok(());
+    }
+    let present: Vec<String> = names
+        .iter()
+        .filter(|name| std::fs::symlink_metadata(out.join(name)).is_ok())
+        .map(|name| format!("`{name}`"))
+        .collect();
+    if present.is_empty() {
+        return Ok(());
+    }
+    Err(invalid(format!(
+        "output folder `{}` (--out) holds {}, a report name of --convergence: not overwriting it; start afresh with --overwrite (which replaces only the files of the names this command writes) or choose another --out",
+        out.display(),
+        present.join(", ")
+    )))
+}
+
 /// Runs the study of the problem file at `path`.
 pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Study, InputError> {
     if options.levels < 3 {
@@ -286,6 +313,17 @@ pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Stud
     for &t in &times {
         coarse_steps.push(coarse_step(t, final_time, file.steps.max(1))?);
     }
+    // the fresh-folder rule of a run, for the reports: none of their names may exist unless
+    // --overwrite (which replaces those names only)
+    let quantities = times
+        .iter()
+        .flat_map(|&t| TIMED_COLUMNS.map(|column| (column, t)))
+        .chain(FINAL_COLUMNS.map(|column| (column, final_time)));
+    check_fresh_reports(
+        &options.out,
+        &report::file_names(quantities),
+        options.overwrite,
+    )?;
     let files: Vec<ProblemFile> = (0..options.levels)
         .map(|i| level_file(&file, &origin, options.ratio, i))
         .collect::<Result<_, _>>()?;

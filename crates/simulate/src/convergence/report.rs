@@ -177,7 +177,25 @@ fn csv_text(study: &Study) -> String {
 }
 
 fn svg_name(quantity: &Quantity) -> String {
-    format!("gci_{}_t{}.svg", quantity.column, quantity.time)
+    svg_file(&quantity.column, quantity.time)
+}
+
+/// The picture of the quantity `column` at `time`.
+fn svg_file(column: &str, time: f64) -> String {
+    format!("gci_{column}_t{time}.svg")
+}
+
+/// The names of the files [`write_files`] writes for the quantities `column` at `time`.
+pub fn file_names<'a>(quantities: impl IntoIterator<Item = (&'a str, f64)>) -> Vec<String> {
+    let mut names: Vec<String> = [CSV_FILE, JSON_FILE, REPORT_FILE, TABLES_FILE]
+        .map(String::from)
+        .to_vec();
+    names.extend(
+        quantities
+            .into_iter()
+            .map(|(column, time)| svg_file(column, time)),
+    );
+    names
 }
 
 fn markdown(study: &Study) -> String {
