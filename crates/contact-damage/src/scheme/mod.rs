@@ -233,12 +233,17 @@ impl<const D: usize> Simulation<D> {
             &space,
             &dirichlet.constrained,
         )?);
-        let velocity = VelocityOperator::with_constraints(
+        let mut velocity = VelocityOperator::with_constraints(
             space.clone(),
             model.viscosity.clone(),
             contact.clone(),
             dirichlet.constrained.clone(),
         )?;
+        if problem.settings.contact == ContactTreatment::Implicit && model.viscosity.is_linear() {
+            // the Newton tangents of the implicit normal compliance change the contact block
+            // of the factor only: keep the body's factor for the whole run
+            velocity.eliminate_normals_last()?;
+        }
         let time_step = problem.final_time / problem.steps as f64;
         let damage = match problem.settings.damage_evolution {
             DamageEvolution::Parabolic => Some(DamageOperator::new(

@@ -77,8 +77,10 @@ impl<const D: usize> VelocityOperator<D> {
         Ok(solution)
     }
 
-    /// [`Self::solve_model`] with the tangential unknowns eliminated last: one forward and one
-    /// backward triangular solve instead of two solves. With z = L⁻¹ P b in elimination order,
+    /// [`Self::solve_model`] with the contact unknowns eliminated last: one forward and one
+    /// backward triangular solve instead of two solves (with the trailing block mapped to the
+    /// current operator's when it is a Newton tangent of the contact block, see
+    /// [`TrailingFactor`]). With z = L⁻¹ P b in elimination order,
     /// (H⁻¹ b)_c = L_cc⁻ᵀ z_c, so the condensed right-hand side S (H⁻¹ b)_c is L_cc z_c
     /// (S = L_cc L_ccᵀ); the friction forces E_c W λ change only the trailing block of z,
     /// z_c ← z_c − L_cc⁻¹ (W λ)_c; and one backward solve gives H⁻¹ (b − E_c W λ). None if the
@@ -99,9 +101,22 @@ impl<const D: usize> VelocityOperator<D> {
             return Ok(None);
         };
         let m = self.tangential.len();
-        let first = z.len() - m;
-        let z_c = Mat::<f64>::from_fn(m, 1, |p, _| z[first + p]);
-        let condensed = sequential_product(trailing.factor.as_ref(), z_c.as_ref());
+        let leading = trailing.leading;
+        let first = z.len() - m - leading;
+        // the trailing block of z for the current operator: z′_c = L′⁻¹ L_cc z_c after a
+        // Newton tangent of the contact block, z_c itself otherwise
+        let mut z_c = Mat::<f64>::from_fn(leading + m, 1, |p, _| z[first + p]);
+        if let Some(plain) = &trailing.plain {
+            let mut mapped = sequential_product(plain.as_ref(), z_c.as_ref());
+            faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+                trailing.factor.as_ref(),
+                mapped.as_mut(),
+                faer::Par::Seq,
+            );
+            z_c = mapped;
+        }
+        let factor_tt = trailing.factor.as_ref().submatrix(leading, leading, m, m);
+        let condensed = sequential_product(factor_tt, z_c.as_ref().subrows(leading, m));
         let mut reduced_rhs = vec![0.0; m];
         for (p, &i) in trailing.index.iter().enumerate() {
             reduced_rhs[i] = condensed[(p, 0)];
@@ -126,12 +141,24 @@ impl<const D: usize> VelocityOperator<D> {
             weights[i / g] * multipliers[i]
         });
         faer::linalg::triangular_solve::solve_lower_triangular_in_place(
-            trailing.factor.as_ref(),
+            factor_tt,
             forces.as_mut(),
             faer::Par::Seq,
         );
         for p in 0..m {
-            z[first + p] -= forces[(p, 0)];
+            z_c[(leading + p, 0)] -= forces[(p, 0)];
+        }
+        if let Some(plain) = &trailing.plain {
+            // back to the sparse factor of H: w_c = L_ccᵀ L′⁻ᵀ z′_c
+            faer::linalg::triangular_solve::solve_upper_triangular_in_place(
+                trailing.factor.as_ref().transpose(),
+                z_c.as_mut(),
+                faer::Par::Seq,
+            );
+            z_c = sequential_product(plain.as_ref().transpose(), z_c.as_ref());
+        }
+        for p in 0..leading + m {
+            z[first + p] = z_c[(p, 0)];
         }
         let Some(mut solution) = self.solver.backward_solve(&z)? else {
             return Ok(None);

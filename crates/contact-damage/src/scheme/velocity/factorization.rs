@@ -13,6 +13,7 @@ impl<const D: usize> VelocityOperator<D> {
     /// step, which then reuses it. Afterwards [`Self::solver`] solves with H and
     /// [`Self::factored_matrix`] is H.
     pub fn factorize_viscous(&mut self) -> Result<()> {
+        self.restore_plain_trailing();
         if !self.matrix_is_plain {
             self.matrix = self.assemble(None)?;
             self.matrix_is_plain = true;
@@ -81,37 +82,132 @@ impl<const D: usize> VelocityOperator<D> {
         }))
     }
 
-    /// S = L_cc L_ccᵀ from the trailing block of the factor, in the order of `tangential`, and
-    /// that block; None when the factor is simplicial or its last unknowns are not the
-    /// tangential ones (then [`Self::factorize`] falls back to m solves).
+    /// S = L_tt L_ttᵀ from the trailing block of the factor (L_tt its tangential part), in the
+    /// order of `tangential`, and that block; None when the factor is simplicial or its last
+    /// unknowns are not the contact ones (then [`Self::factorize`] falls back to m solves).
     pub(super) fn schur_from_trailing_factor(&self) -> Option<(Mat<f64>, TrailingFactor)> {
         let m = self.tangential.len();
         if m == 0 {
             return None;
         }
-        let (trailing, unknowns) = self.solver.trailing_factor(m)?;
+        let leading = if self.normals_last {
+            self.contact.len()
+        } else {
+            0
+        };
+        let (trailing, unknowns) = self.solver.trailing_factor(leading + m)?;
         let mut position = vec![usize::MAX; self.size()];
         for (i, &dof) in self.tangential.iter().enumerate() {
             position[dof] = i;
         }
-        let index: Vec<usize> = unknowns.iter().map(|&dof| position[dof]).collect();
+        let mut normal_nodes = Vec::with_capacity(leading);
+        for &dof in &unknowns[..leading] {
+            match self.contact.index_of_node[dof / D] {
+                Some(k) if dof % D == 0 => normal_nodes.push(k),
+                _ => return None,
+            }
+        }
+        let index: Vec<usize> = unknowns[leading..]
+            .iter()
+            .map(|&dof| position[dof])
+            .collect();
         if index.contains(&usize::MAX) {
             return None;
         }
-        let product = &trailing * trailing.transpose();
+        let trailing = TrailingFactor {
+            factor: trailing,
+            index,
+            leading,
+            normal_nodes,
+            plain: None,
+            plain_schur: None,
+        };
+        Some((self.tangential_schur(&trailing), trailing))
+    }
+
+    /// S = L_tt L_ttᵀ in the order of `tangential`, L_tt the tangential part of the trailing
+    /// factor (exactly symmetric: the blocked product need not be, to rounding).
+    pub(super) fn tangential_schur(&self, trailing: &TrailingFactor) -> Mat<f64> {
+        let m = self.tangential.len();
+        let block = trailing
+            .factor
+            .as_ref()
+            .submatrix(trailing.leading, trailing.leading, m, m);
+        let product = block * block.transpose();
         let mut schur = Mat::<f64>::zeros(m, m);
-        for (p, &i) in index.iter().enumerate() {
-            for (q, &j) in index.iter().enumerate() {
-                // exactly symmetric (the blocked product need not be, to rounding)
+        for (p, &i) in trailing.index.iter().enumerate() {
+            for (q, &j) in trailing.index.iter().enumerate() {
                 schur[(i, j)] = 0.5 * (product[(p, q)] + product[(q, p)]);
             }
         }
-        Some((
-            schur,
-            TrailingFactor {
-                factor: trailing,
-                index,
-            },
-        ))
+        schur
+    }
+
+    /// The Newton tangent H + D of a linear 𝒜 with the implicit normal compliance at the
+    /// system velocity `velocity` (D = ω_a k p_ν′ on the normal unknowns), without touching the
+    /// sparse factor of H: the trailing factor becomes L′ = chol(S_c + D) (see
+    /// [`TrailingFactor`]) and S the Schur complement of the tangent on the tangential
+    /// unknowns. Returns false (nothing changed) when the operator cannot do this (the normal
+    /// unknowns are not in the trailing block, or no supernodal factor of H is held).
+    pub(super) fn linearize_contact_in_trailing(&mut self, velocity: &[f64]) -> Result<bool> {
+        let Some(implicit) = &self.implicit else {
+            return Ok(false);
+        };
+        if !(self.law.is_linear() && self.matrix_is_plain && self.solver.is_factorized()) {
+            return Ok(false);
+        }
+        let Some(trailing) = self.trailing.as_mut() else {
+            return Ok(false);
+        };
+        if trailing.leading == 0 || trailing.leading != self.contact.len() {
+            return Ok(false);
+        }
+        let plain = trailing
+            .plain
+            .take()
+            .unwrap_or_else(|| trailing.factor.clone());
+        let plain_schur = trailing.plain_schur.take().unwrap_or_else(|| {
+            let product = &plain * plain.transpose();
+            Mat::from_fn(product.nrows(), product.ncols(), |i, j| {
+                0.5 * (product[(i, j)] + product[(j, i)])
+            })
+        });
+        let mut tangent = plain_schur.clone();
+        for (p, &k) in trailing.normal_nodes.iter().enumerate() {
+            let dof = self.contact.nodes[k] * D;
+            tangent[(p, p)] += self.contact.weights[k]
+                * implicit.time_step
+                * implicit
+                    .law
+                    .normal_stiffness(implicit.penetration(k, velocity[dof]));
+        }
+        let factor = tangent
+            .llt(faer::Side::Lower)
+            .map_err(|e| Error::LinearAlgebra {
+                context: "Newton tangent of the implicit normal compliance (contact block)".into(),
+                message: format!("dense Cholesky failed: {e:?}"),
+            })?
+            .L()
+            .to_owned();
+        trailing.factor = factor;
+        trailing.plain = Some(plain);
+        trailing.plain_schur = Some(plain_schur);
+        let trailing = self.trailing.take().expect("checked above");
+        self.schur = self.tangential_schur(&trailing);
+        self.trailing = Some(trailing);
+        CondensedFriction::validate_matrix(self.schur.as_ref())?;
+        Ok(true)
+    }
+
+    /// Makes the trailing factor that of H again after Newton tangents of the contact block.
+    pub(super) fn restore_plain_trailing(&mut self) {
+        let Some(mut trailing) = self.trailing.take() else {
+            return;
+        };
+        if let Some(plain) = trailing.plain.take() {
+            trailing.factor = plain;
+            self.schur = self.tangential_schur(&trailing);
+        }
+        self.trailing = Some(trailing);
     }
 }

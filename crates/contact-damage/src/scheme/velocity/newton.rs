@@ -23,6 +23,7 @@ impl<const D: usize> VelocityOperator<D> {
         let mut multipliers = vec![0.0; self.contact.len() * (D - 1)];
         let mut velocity = self.start_vector(start);
         let mut history: Vec<f64> = Vec::new();
+        self.restore_plain_trailing();
         if !self.matrix_is_plain {
             // a Newton tangent (implicit contact) replaced the operator of the run
             self.matrix = self.assemble(None)?;
@@ -106,6 +107,16 @@ impl<const D: usize> VelocityOperator<D> {
         settings: &VelocitySettings,
     ) -> Result<(Vec<f64>, Vec<f64>, VelocityStats)> {
         let mut stats = VelocityStats::default();
+        if self.law.is_linear()
+            && self.implicit.is_some()
+            && self.normals_last
+            && !(self.matrix_is_plain && self.solver.is_factorized())
+        {
+            // the factor of H, kept for the whole run: the Newton tangents change the contact
+            // block only
+            self.factorize_viscous()?;
+            stats.factorizations += 1;
+        }
         let target = settings.tolerance * NEWTON_HEADROOM;
         let mut velocity = self.start_vector(start);
         let mut point = self.evaluate(load, weights, &velocity);
@@ -133,10 +144,15 @@ impl<const D: usize> VelocityOperator<D> {
             }
             stats.newton_iterations += 1;
             if self.linearized_at.as_deref() != Some(velocity.as_slice()) {
-                self.matrix = self.assemble(Some(&velocity))?;
-                self.matrix_is_plain = false;
-                self.factorize()?;
-                stats.factorizations += 1;
+                if self.linearize_contact_in_trailing(&velocity)? {
+                    // linear 𝒜, implicit contact: only the contact block changes
+                    stats.contact_block_factorizations += 1;
+                } else {
+                    self.matrix = self.assemble(Some(&velocity))?;
+                    self.matrix_is_plain = false;
+                    self.factorize()?;
+                    stats.factorizations += 1;
+                }
                 self.linearized_at = Some(velocity.clone());
             }
             // the Newton model around v in increment form: b − Hv = F − N(v)

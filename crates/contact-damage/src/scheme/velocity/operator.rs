@@ -50,15 +50,39 @@ pub struct VelocityOperator<const D: usize> {
     pub(super) implicit: Option<ImplicitNormalCompliance>,
     /// True while `matrix` is the plain viscous operator (false after a Newton tangent).
     pub(super) matrix_is_plain: bool,
+    /// The normal contact unknowns are eliminated just before the tangential ones
+    /// ([`Self::eliminate_normals_last`]).
+    pub(super) normals_last: bool,
 }
 
-/// The trailing block L_cc of the velocity factor when the tangential contact unknowns are
-/// eliminated last (elimination order), and the position in `tangential` of each of its
-/// unknowns.
+/// The trailing block of the velocity factor when the contact unknowns are eliminated last
+/// (elimination order): the tangential ones, preceded by the normal ones when the implicit
+/// normal compliance is to be linearized without refactorizing the body
+/// ([`VelocityOperator::eliminate_normals_last`]).
+///
+/// With P H Pᵀ = L Lᵀ and the block split into body b and contact c unknowns,
+/// L = [[L_bb, 0], [L_cb, L_cc]], the Schur complement of H on c is S_c = L_cc L_ccᵀ. A Newton
+/// tangent H + D of the implicit normal compliance (D diagonal, on the normal unknowns of c)
+/// keeps L_bb and L_cb: its factor is L with L_cc replaced by L′ = chol(S_c + D). The solves
+/// then use the sparse factor of H and map the trailing block: z′_c = L′⁻¹ L_cc z_c forward,
+/// w_c = L_ccᵀ L′⁻ᵀ z′_c backward.
 #[derive(Debug, Clone)]
 pub(super) struct TrailingFactor {
+    /// The trailing factor of the current operator: L_cc of the sparse factor, or L′ of a
+    /// Newton tangent when `plain` is set.
     pub(super) factor: Mat<f64>,
+    /// For each tangential unknown of the block (after the `leading` normal ones): its position
+    /// in `tangential`.
     pub(super) index: Vec<usize>,
+    /// Number of normal contact unknowns at the head of the block (0 unless normals are
+    /// eliminated last).
+    pub(super) leading: usize,
+    /// The contact node (index into the contact nodes) of each leading normal unknown.
+    pub(super) normal_nodes: Vec<usize>,
+    /// L_cc of the sparse factor (of H) when `factor` is the L′ of a Newton tangent.
+    pub(super) plain: Option<Mat<f64>>,
+    /// S_c = L_cc L_ccᵀ of the sparse factor, formed at the first Newton tangent.
+    pub(super) plain_schur: Option<Mat<f64>>,
 }
 
 impl<const D: usize> VelocityOperator<D> {

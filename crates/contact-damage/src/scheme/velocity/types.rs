@@ -35,8 +35,12 @@ pub struct VelocityStats {
     pub friction_iterations: usize,
     /// Proximal-gradient iterations of the condensed friction problems (globalization).
     pub friction_gradient_iterations: usize,
-    /// Numeric Cholesky factorizations done in this step.
+    /// Numeric Cholesky factorizations of the sparse velocity operator done in this step.
     pub factorizations: usize,
+    /// Dense Cholesky factorizations of the contact block alone (Newton tangents of the
+    /// implicit normal compliance with a linear 𝒜, the body's factor kept; see
+    /// [`VelocityOperator::eliminate_normals_last`](super::VelocityOperator::eliminate_normals_last)).
+    pub contact_block_factorizations: usize,
     /// Relative KKT residual of (5.1) on the full system, see
     /// [`VelocityOperator::kkt_residual`](super::VelocityOperator::kkt_residual).
     pub kkt_residual: f64,
