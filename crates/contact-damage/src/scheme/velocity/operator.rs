@@ -117,7 +117,9 @@ impl<const D: usize> VelocityOperator<D> {
         self.pattern.nnz()
     }
 
-    /// The constrained unknowns (Cartesian components, node-major).
+    /// The constrained unknowns (Cartesian components, node-major). (The field `constrained`
+    /// holds the same in the system frame, which differs at contact nodes on a symmetry plane.)
+    #[allow(clippy::misnamed_getters)]
     pub fn constrained(&self) -> &[bool] {
         &self.constrained_cartesian
     }
