@@ -682,3 +682,70 @@ fn no_command_replaces_a_report_it_did_not_write() {
         "% my edits\n"
     );
 }
+
+/// A case file, a manifest or a case's mesh that is a named pipe, a device or a directory is
+/// refused by name before it is read (a named pipe would block the run until killed); a run
+/// that has not ended after 60 s fails the test.
+#[test]
+fn pipes_devices_and_directories_are_refused_by_name_before_they_are_read() {
+    let dir = std::env::temp_dir().join(format!("verify-special-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let pipe = dir.join("case.toml");
+    assert!(Command::new("mkfifo")
+        .arg(&pipe)
+        .status()
+        .unwrap()
+        .success());
+    let within_a_minute = |args: &[&std::ffi::OsStr]| {
+        let mut child = verify()
+            .args(args)
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .unwrap();
+        let start = std::time::Instant::now();
+        while child.try_wait().unwrap().is_none() {
+            if start.elapsed() > std::time::Duration::from_secs(60) {
+                child.kill().unwrap();
+                panic!("verify {args:?} did not end within a minute");
+            }
+            std::thread::sleep(std::time::Duration::from_millis(50));
+        }
+        let output = child.wait_with_output().unwrap();
+        assert!(!output.status.success());
+        String::from_utf8_lossy(&output.stderr).into_owned()
+    };
+    let out = dir.join("out");
+    for (path, kind) in [(pipe.as_path(), "named pipe"), (dir.as_path(), "directory")] {
+        let message = within_a_minute(&[
+            "--case".as_ref(),
+            path.as_os_str(),
+            "--out".as_ref(),
+            out.as_os_str(),
+        ]);
+        assert!(
+            message.contains("case file")
+                && message.contains(kind)
+                && !message.contains("panicked"),
+            "{message}"
+        );
+    }
+    let manifest = dir.join("manifest.json");
+    assert!(Command::new("mkfifo")
+        .arg(&manifest)
+        .status()
+        .unwrap()
+        .success());
+    let message = within_a_minute(&[
+        "run".as_ref(),
+        "--manifest".as_ref(),
+        manifest.as_os_str(),
+        "--index".as_ref(),
+        "0".as_ref(),
+    ]);
+    assert!(
+        message.contains("manifest") && message.contains("named pipe"),
+        "{message}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -10,6 +10,7 @@
 //! - [`console`]: writing to standard output and error without panicking;
 //! - [`threads`]: the `--threads` option;
 //! - [`written`]: which files of a folder a program wrote, so that it replaces no other;
+//! - [`regular`]: input files are read only when they are regular files;
 //! - [`number`]: numbers in messages, printed short;
 //! - [`mutation`]: hostile edits of input text for the parsers' robustness tests;
 //! - [`error`]: the error type, naming file, key or line; the file kind ("case" or
@@ -23,6 +24,7 @@ pub mod laws;
 pub mod mutation;
 pub mod number;
 pub mod output;
+pub mod regular;
 pub mod scheme;
 pub mod sides;
 pub mod threads;

@@ -134,6 +134,7 @@ fn check_saved_values<const D: usize>(saved: &SavedState, path: &Path) -> Result
 /// Reads `state.json` of a folder.
 pub fn read_saved_state(dir: &Path) -> Result<SavedState, InputError> {
     let path = dir.join(STATE_FILE);
+    contact_input::regular::check_regular_file(&path, "saved state")?;
     let text = std::fs::read_to_string(&path)
         .map_err(|e| InputError::io("reading saved state", &path, e))?;
     serde_json::from_str(&text)

@@ -468,3 +468,94 @@ fn a_closed_standard_output_ends_quietly_with_status_141() {
         assert!(message.is_empty(), "{what}: {message}");
     }
 }
+
+/// Runs `simulate` with `args`; a run that has not ended after 60 s is killed and fails the
+/// test (what a blocked read of a named pipe would do).
+fn simulate_within_a_minute(args: &[&std::ffi::OsStr]) -> Output {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_simulate"))
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = std::time::Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if start.elapsed() > std::time::Duration::from_secs(60) {
+            child.kill().unwrap();
+            panic!("simulate {args:?} did not end within a minute");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn pipes_devices_and_directories_are_refused_by_name_before_they_are_read() {
+    let dir = scratch("hostile-special-files");
+    let pipe = dir.join("pipe.toml");
+    let made = Command::new("mkfifo").arg(&pipe).status().unwrap();
+    assert!(made.success());
+    let out = dir.join("out");
+    // the problem file itself: a named pipe, a directory
+    for (path, kind) in [(&pipe, "named pipe"), (&dir, "directory")] {
+        let output =
+            simulate_within_a_minute(&[path.as_os_str(), "--out".as_ref(), out.as_os_str()]);
+        assert!(!output.status.success());
+        let message = stderr(&output);
+        assert!(
+            message.contains("problem file")
+                && message.contains(kind)
+                && !message.contains("panicked"),
+            "{message}"
+        );
+    }
+    // the Gmsh mesh of a problem file: a named pipe, a device, another kind of file
+    let mesh_pipe = dir.join("mesh.msh");
+    assert!(Command::new("mkfifo")
+        .arg(&mesh_pipe)
+        .status()
+        .unwrap()
+        .success());
+    let foreign = dir.join("notes.msh");
+    std::fs::write(
+        &foreign,
+        "secret: the first line of a file that is no mesh\n",
+    )
+    .unwrap();
+    for mesh in [
+        mesh_pipe.as_path(),
+        Path::new("/dev/zero"),
+        foreign.as_path(),
+    ] {
+        let problem = dir.join("gmsh.toml");
+        let text: String = std::fs::read_to_string(small_problem(&dir))
+            .unwrap()
+            .lines()
+            .map(|line| {
+                if line.starts_with("box = ") {
+                    format!(
+                        "gmsh = {{ file = \"{}\", clamped = [\"left\"], contact = [\"bottom\"] }}\n",
+                        mesh.display()
+                    )
+                } else {
+                    format!("{line}\n")
+                }
+            })
+            .collect();
+        assert!(text.contains("gmsh = "));
+        std::fs::write(&problem, text).unwrap();
+        let output =
+            simulate_within_a_minute(&[problem.as_os_str(), "--out".as_ref(), out.as_os_str()]);
+        assert!(!output.status.success());
+        let message = stderr(&output);
+        assert!(
+            message.contains(&mesh.display().to_string()) && !message.contains("panicked"),
+            "{message}"
+        );
+        assert!(
+            !message.contains("secret"),
+            "the message quotes the file: {message}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}

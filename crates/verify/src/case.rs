@@ -422,6 +422,7 @@ fn case_error(origin: &str, key: &str, message: impl Into<String>) -> InputError
 
 /// Reads and parses a case file (TOML syntax errors carry line and column).
 pub fn read_case_file(path: &Path) -> Result<CaseFile, InputError> {
+    contact_input::regular::check_regular_file(path, "case file")?;
     let text =
         std::fs::read_to_string(path).map_err(|e| InputError::io("reading case file", path, e))?;
     parse_case_file(&text, &path.display().to_string())

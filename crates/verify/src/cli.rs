@@ -260,6 +260,7 @@ pub fn load_case(args: &StudyArgs) -> Result<(String, String), InputError> {
         return Ok((text.to_string(), format!("built-in:{builtin}")));
     }
     let path = PathBuf::from(&name);
+    contact_input::regular::check_regular_file(&path, "case file")?;
     let text = std::fs::read_to_string(&path)
         .map_err(|e| InputError::io("reading case file", &path, e))?;
     Ok((text, path.display().to_string()))

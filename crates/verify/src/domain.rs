@@ -141,6 +141,8 @@ pub fn mesh_file(file: &str, origin: &str) -> Result<(Vec<u8>, String), InputErr
             .parent()
             .unwrap_or_else(|| Path::new(""))
             .join(file);
+        contact_input::regular::check_regular_file(&path, "mesh")
+            .map_err(|e| case_error(origin, "domain.mesh", e.to_string()))?;
         let bytes = std::fs::read(&path).map_err(|e| {
             case_error(
                 origin,

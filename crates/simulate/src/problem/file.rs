@@ -307,6 +307,7 @@ pub(super) fn problem_error(origin: &str, key: &str, message: impl Into<String>)
 
 /// Reads and parses a problem file (TOML errors carry line and column).
 pub fn read_problem_file(path: &Path) -> Result<ProblemFile, InputError> {
+    contact_input::regular::check_regular_file(path, "problem file")?;
     let text = std::fs::read_to_string(path)
         .map_err(|e| InputError::io("reading problem file", path, e))?;
     parse_problem_file(&text, &path.display().to_string())

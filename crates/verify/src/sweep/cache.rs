@@ -65,6 +65,9 @@ fn store(results: &Path, run: &PlannedRun, payload: &[u8]) -> Result<(), InputEr
 /// Reads the payload of the result file of `run`, checked.
 fn load(results: &Path, run: &PlannedRun) -> Stored<Vec<u8>> {
     let path = result_path(results, run);
+    if let Err(error) = contact_input::regular::check_regular_file(&path, "result file") {
+        return Stored::Invalid(error.to_string());
+    }
     let bytes = match std::fs::read(&path) {
         Ok(bytes) => bytes,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Stored::Missing,

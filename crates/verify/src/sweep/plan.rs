@@ -425,6 +425,7 @@ pub fn write_manifest(path: &Path, manifest: &Manifest) -> Result<(), InputError
 
 /// Reads and checks a manifest ([`Manifest::check`]).
 pub fn read_manifest(path: &Path) -> Result<Manifest, InputError> {
+    contact_input::regular::check_regular_file(path, "manifest")?;
     let text = std::fs::read_to_string(path)
         .map_err(|e| InputError::io("reading the manifest", path, e))?;
     let manifest: Manifest = serde_json::from_str(&text).map_err(|e| {

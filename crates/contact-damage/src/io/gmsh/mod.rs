@@ -147,8 +147,18 @@ impl PhysicalMap {
 
 /// Reads a Gmsh MSH 4.1 file, ASCII or binary, into a mesh of dimension D ∈ {2, 3}; see the
 /// module documentation for what is read and [`parse_msh_bytes`] for the errors. An unreadable
-/// file is an [`Error::InvalidInput`] naming the path.
+/// file, or a path that is not a regular file (refused before it is opened), is an
+/// [`Error::InvalidInput`] naming the path.
 pub fn read_msh<const D: usize>(path: &Path, map: &PhysicalMap) -> Result<Mesh<D>> {
+    // only a regular file: a named pipe would block, a device be read without end
+    if let Ok(metadata) = std::fs::metadata(path) {
+        if !metadata.is_file() {
+            return Err(Error::InvalidInput(format!(
+                "mesh `{}` is not a regular file (a directory, a named pipe or a device): only regular files are read",
+                path.display()
+            )));
+        }
+    }
     let bytes = std::fs::read(path)
         .map_err(|error| Error::InvalidInput(format!("cannot read {}: {error}", path.display())))?;
     parse_msh_bytes(&bytes, &path.display().to_string(), map)
@@ -301,7 +311,12 @@ pub fn parse_msh_bytes<const D: usize>(
 fn read_mesh_format(reader: &mut Reader) -> Result<()> {
     let first = reader.expect_record("`$MeshFormat`")?;
     if first.text != b"$MeshFormat" {
-        return Err(first.fail("`$MeshFormat` (the first line of a Gmsh .msh file)"));
+        // not quoted: the file may be anything (a mesh path that names another file), and
+        // its first line is not for the message
+        return Err(first.fail_with(
+            "`$MeshFormat` (the first line of a Gmsh .msh file)",
+            "a line that is not Gmsh: this is not a Gmsh mesh file",
+        ));
     }
     const HEADER: &str = "the format header `version file-type data-size`";
     let header = reader.expect_record(HEADER)?;
