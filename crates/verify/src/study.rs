@@ -522,7 +522,26 @@ pub fn run_problem<const D: usize>(
     let shape_regularity = shape_regularity(&problem.mesh);
     let mut simulation = Simulation::new(problem)?;
     let reference = match reference {
-        Some(states) => Reference::Discrete(states),
+        Some(states) => {
+            // stored states read from a results folder must fit this run's mesh and steps
+            let nodes = simulation.space().num_nodes();
+            let fits = |state: &State| {
+                state.damage.len() == nodes
+                    && state.displacement.len() == D * nodes
+                    && state.velocity.len() == D * nodes
+            };
+            if states.len() < steps + 1 || !states.iter().all(fits) {
+                return Err(InputError::InvalidInput(format!(
+                    "the reference states do not fit this run: {} states for {} steps + 1, \
+                     vectors of {} values for a space of {nodes} nodes; remove the reference \
+                     run's result file so that it is recomputed",
+                    states.len(),
+                    steps,
+                    states.first().map_or(0, |state| state.damage.len())
+                )));
+            }
+            Reference::Discrete(states)
+        }
         // Empty caches: the error points of this run only.
         None => Reference::Exact(Arc::new(ExactPrograms::clone(&case.programs))),
     };

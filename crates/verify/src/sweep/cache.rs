@@ -113,11 +113,57 @@ pub fn store_run(results: &Path, run: &PlannedRun, result: &RunResult) -> Result
     store(results, run, &payload)
 }
 
-/// Loads the checked result of a run.
+/// What a stored run result must satisfy to be used: the run's level and steps, a finite
+/// positive h and k, error components finite and ≥ 0 (`velocity` may have no value), finite
+/// non-negative KKT residuals and iteration means, and some velocity unknowns. A checksum
+/// without a key detects accidents only; these checks keep a forged or stale result from
+/// reaching a report.
+fn check_run(result: &RunResult, run: &PlannedRun) -> Result<(), String> {
+    if result.cells != run.cells || result.steps != run.steps {
+        return Err(format!(
+            "it holds level {} with {} steps, the run is level {} with {} steps",
+            result.cells, result.steps, run.cells, run.steps
+        ));
+    }
+    for (name, value) in [("h", result.h), ("k", result.k)] {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(format!("{name} = {value} (must be finite and > 0)"));
+        }
+    }
+    let names = crate::error_norms::ErrorComponents::NAMES;
+    for (name, value) in names.iter().zip(result.errors.values()) {
+        // only `velocity` may have no value (a run against a discrete reference)
+        let absent_allowed = *name == "velocity" && value.is_nan();
+        let admissible = value.is_finite() && value >= 0.0;
+        if !(absent_allowed || admissible) {
+            return Err(format!("error `{name}` = {value} (must be finite and ≥ 0)"));
+        }
+    }
+    let stats = &result.stats;
+    for (name, value) in [
+        ("max_velocity_kkt", stats.max_velocity_kkt),
+        ("max_damage_kkt", stats.max_damage_kkt),
+        ("mean_newton_iterations", stats.mean_newton_iterations),
+    ] {
+        if !(value.is_finite() && value >= 0.0) {
+            return Err(format!("`{name}` = {value} (must be finite and ≥ 0)"));
+        }
+    }
+    if stats.velocity_unknowns == 0 {
+        return Err("no velocity unknowns".to_string());
+    }
+    Ok(())
+}
+
+/// Loads the checked result of a run (its header, checksum and what it holds: level, steps,
+/// finite non-negative errors and residuals).
 pub fn load_run(results: &Path, run: &PlannedRun) -> Stored<RunResult> {
     match load(results, run) {
-        Stored::Valid(payload) => match serde_json::from_slice(&payload) {
-            Ok(result) => Stored::Valid(result),
+        Stored::Valid(payload) => match serde_json::from_slice::<RunResult>(&payload) {
+            Ok(result) => match check_run(&result, run) {
+                Ok(()) => Stored::Valid(result),
+                Err(reason) => Stored::Invalid(reason),
+            },
             Err(e) => Stored::Invalid(format!("payload: {e}")),
         },
         Stored::Missing => Stored::Missing,
@@ -185,7 +231,58 @@ impl Reader<'_> {
     }
 }
 
-/// Loads the checked states of a reference run.
+/// What stored reference states must satisfy: one state per stored step (every `stride`-th of
+/// the run's steps, from 0), finite times and values, and vectors of one length per kind with D
+/// displacement and velocity values per damage value (D = 2 or 3). Whether they fit the mesh is
+/// checked where they are used.
+fn check_states(states: &[State], run: &PlannedRun) -> Result<(), String> {
+    let stride = run.stride.unwrap_or(1).max(1);
+    let expected = run.steps / stride + 1;
+    if states.len() != expected {
+        return Err(format!(
+            "{} states, the run stores {expected} (every {stride}-th of {} steps)",
+            states.len(),
+            run.steps
+        ));
+    }
+    let first = &states[0];
+    let nodes = first.damage.len();
+    let dim_ok = nodes > 0
+        && (first.displacement.len() == 2 * nodes || first.displacement.len() == 3 * nodes);
+    if !dim_ok {
+        return Err(format!(
+            "state vectors of {} displacement and {nodes} damage values",
+            first.displacement.len()
+        ));
+    }
+    for (i, state) in states.iter().enumerate() {
+        if state.step != i * stride || !state.time.is_finite() {
+            return Err(format!(
+                "state {i}: step {}, t = {}",
+                state.step, state.time
+            ));
+        }
+        let lengths_fit = state.damage.len() == nodes
+            && state.displacement.len() == first.displacement.len()
+            && state.velocity.len() == first.displacement.len();
+        if !lengths_fit {
+            return Err(format!("state {i}: vectors of another length than state 0"));
+        }
+        let finite = state
+            .displacement
+            .iter()
+            .chain(&state.velocity)
+            .chain(&state.damage)
+            .all(|v| v.is_finite());
+        if !finite {
+            return Err(format!("state {i}: a value that is not finite"));
+        }
+    }
+    Ok(())
+}
+
+/// Loads the checked states of a reference run (header, checksum, one finite state per stored
+/// step with vectors of consistent lengths).
 pub fn load_states(results: &Path, run: &PlannedRun) -> Stored<Vec<State>> {
     match load(results, run) {
         Stored::Valid(payload) => {
@@ -194,7 +291,10 @@ pub fn load_states(results: &Path, run: &PlannedRun) -> Stored<Vec<State>> {
                 .count()
                 .and_then(|n| (0..n).map(|_| reader.state()).collect::<Option<Vec<_>>>());
             match states {
-                Some(states) if reader.bytes.is_empty() => Stored::Valid(states),
+                Some(states) if reader.bytes.is_empty() => match check_states(&states, run) {
+                    Ok(()) => Stored::Valid(states),
+                    Err(reason) => Stored::Invalid(reason),
+                },
                 _ => Stored::Invalid("payload is not a list of states".to_string()),
             }
         }
@@ -269,5 +369,85 @@ mod tests {
         assert!(
             matches!(load_states(scratch.path(), &run), Stored::Invalid(r) if r.contains("checksum"))
         );
+    }
+
+    fn run_result(run: &PlannedRun, damage_error: f64) -> RunResult {
+        RunResult {
+            cells: run.cells,
+            h: 0.7,
+            mesh_cells: 8,
+            shape_regularity: 1.0,
+            steps: run.steps,
+            k: 0.25,
+            errors: crate::error_norms::ErrorComponents {
+                displacement: 0.1,
+                difference_quotient: 0.2,
+                damage: damage_error,
+                damage_gradient: 0.3,
+                total: 0.6,
+                velocity: f64::NAN,
+            },
+            stats: crate::study::RunStats {
+                velocity_unknowns: 18,
+                ..Default::default()
+            },
+        }
+    }
+
+    #[test]
+    fn stored_results_with_a_valid_checksum_are_still_checked_like_input() {
+        let scratch = tempfile::tempdir().unwrap();
+        let run = PlannedRun {
+            kind: RunKind::Exact,
+            ..planned("run")
+        };
+        store_run(scratch.path(), &run, &run_result(&run, 0.05)).unwrap();
+        assert!(matches!(load_run(scratch.path(), &run), Stored::Valid(_)));
+        // forged with a recomputed checksum: a negative error, an error without a value
+        for (error, reason) in [(-1e-3, "damage"), (f64::NAN, "damage")] {
+            store_run(scratch.path(), &run, &run_result(&run, error)).unwrap();
+            let stored = load_run(scratch.path(), &run);
+            assert!(
+                matches!(&stored, Stored::Invalid(r) if r.contains(reason)),
+                "{error}: {stored:?}"
+            );
+        }
+        // another level than the run's
+        let mut other = run_result(&run, 0.05);
+        other.cells += 1;
+        store_run(scratch.path(), &run, &other).unwrap();
+        assert!(
+            matches!(load_run(scratch.path(), &run), Stored::Invalid(r) if r.contains("level"))
+        );
+        // reference states: one vector cut to a single value, a NaN, a missing state
+        let reference = planned("reference");
+        let good: Vec<State> = (0..3)
+            .map(|n| State {
+                step: 2 * n,
+                time: 0.1 * n as f64,
+                displacement: vec![0.0; 4],
+                velocity: vec![0.0; 4],
+                damage: vec![1.0; 2],
+                previous_damage: Vec::new(),
+            })
+            .collect();
+        let mut short = good.clone();
+        short[1].displacement.truncate(1);
+        let mut nan = good.clone();
+        nan[2].velocity[0] = f64::NAN;
+        let missing = good[..2].to_vec();
+        for (states, reason) in [(&short, "length"), (&nan, "finite"), (&missing, "states")] {
+            store_states(scratch.path(), &reference, states).unwrap();
+            let stored = load_states(scratch.path(), &reference);
+            assert!(
+                matches!(&stored, Stored::Invalid(r) if r.contains(reason)),
+                "{reason}: {stored:?}"
+            );
+        }
+        store_states(scratch.path(), &reference, &good).unwrap();
+        assert!(matches!(
+            load_states(scratch.path(), &reference),
+            Stored::Valid(_)
+        ));
     }
 }
