@@ -167,9 +167,18 @@ impl<const D: usize> VelocityOperator<D> {
                 }
                 self.prescribed_cartesian[dof] = prescribed[dof];
             }
-            let system = self.rotate_to_system(&self.prescribed_cartesian);
             for (dof, _) in self.constrained.iter().enumerate().filter(|(_, &c)| c) {
-                self.prescribed[dof] = system[dof];
+                let (node, component) = (dof / D, dof % D);
+                self.prescribed[dof] = match self.contact.index_of_node[node] {
+                    None => self.prescribed_cartesian[dof],
+                    // a fixed tangent of a contact frame: t · v
+                    Some(k) => (0..D)
+                        .map(|i| {
+                            self.contact.frames[k][(i, component)]
+                                * self.prescribed_cartesian[node * D + i]
+                        })
+                        .sum(),
+                };
             }
         }
         Ok(())
