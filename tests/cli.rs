@@ -1,6 +1,9 @@
 //! End-to-end tests of the `verify` command line: reports are written, bad input gets a clear
 //! error and a non-zero exit status.
 
+mod process;
+
+use process::{closed_pipe, full_disk, output_within_a_minute};
 use std::process::Command;
 
 fn verify() -> Command {
@@ -484,27 +487,6 @@ fn verify_baseline_regenerates_the_baseline_and_lists_the_errors_that_moved() {
     }
 }
 
-/// `/dev/full`, opened for writing: every write fails with ENOSPC.
-fn full_disk() -> std::process::Stdio {
-    std::fs::OpenOptions::new()
-        .write(true)
-        .open("/dev/full")
-        .unwrap()
-        .into()
-}
-
-/// The write end of a pipe whose read end is already closed: every write fails with EPIPE.
-/// (The read end belongs to a `true` process, which has exited when this returns.)
-fn closed_pipe() -> std::process::Stdio {
-    let mut reader = Command::new("true")
-        .stdin(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let writer = reader.stdin.take().unwrap();
-    assert!(reader.wait().unwrap().success());
-    writer.into()
-}
-
 /// Runs `verify args` with standard output `stdout`; returns the status and stderr.
 fn verify_into(args: &[&std::ffi::OsStr], stdout: std::process::Stdio) -> (Option<i32>, String) {
     let output = verify()
@@ -697,21 +679,9 @@ fn pipes_devices_and_directories_are_refused_by_name_before_they_are_read() {
         .unwrap()
         .success());
     let within_a_minute = |args: &[&std::ffi::OsStr]| {
-        let mut child = verify()
-            .args(args)
-            .stdout(std::process::Stdio::piped())
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap();
-        let start = std::time::Instant::now();
-        while child.try_wait().unwrap().is_none() {
-            if start.elapsed() > std::time::Duration::from_secs(60) {
-                child.kill().unwrap();
-                panic!("verify {args:?} did not end within a minute");
-            }
-            std::thread::sleep(std::time::Duration::from_millis(50));
-        }
-        let output = child.wait_with_output().unwrap();
+        let mut command = verify();
+        command.args(args);
+        let output = output_within_a_minute(command);
         assert!(!output.status.success());
         String::from_utf8_lossy(&output.stderr).into_owned()
     };

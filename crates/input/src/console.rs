@@ -93,6 +93,26 @@ macro_rules! errln {
     };
 }
 
+/// Writes clap's text for a command line that clap did not run (`--help`, `--version`, a usage
+/// error) to the stream clap chose, in colour only on a terminal, without panicking. Returns
+/// clap's exit status (`fallback` if it does not fit a status byte), or the write that failed.
+pub fn write_clap_message(error: &clap::Error, fallback: u8) -> Result<u8, ConsoleError> {
+    use std::io::IsTerminal;
+    let text = error.render();
+    if error.use_stderr() {
+        match std::io::stderr().is_terminal() {
+            true => err(format_args!("{}", text.ansi())),
+            false => err(format_args!("{text}")),
+        }?;
+    } else {
+        match std::io::stdout().is_terminal() {
+            true => out(format_args!("{}", text.ansi())),
+            false => out(format_args!("{text}")),
+        }?;
+    }
+    Ok(u8::try_from(error.exit_code()).unwrap_or(fallback))
+}
+
 /// The exit status after `error` in `program`: [`CLOSED_PIPE_STATUS`] for a closed pipe
 /// (nothing is reported), otherwise `status` after `program: error` on standard error (if
 /// standard error itself cannot be written, the status is all that is left).

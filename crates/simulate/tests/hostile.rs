@@ -4,8 +4,11 @@
 //! before any work, with a message naming the option or key.
 
 mod common;
+#[path = "../../../tests/process/mod.rs"]
+mod process;
 
 use common::scratch;
+use process::{closed_pipe, full_disk, output_within_a_minute};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -398,27 +401,6 @@ fn problems_too_large_for_the_memory_are_refused_before_allocating() {
     }
 }
 
-/// `/dev/full`, opened for writing: every write fails with ENOSPC.
-fn full_disk() -> std::process::Stdio {
-    std::fs::OpenOptions::new()
-        .write(true)
-        .open("/dev/full")
-        .unwrap()
-        .into()
-}
-
-/// The write end of a pipe whose read end is already closed: every write fails with EPIPE.
-/// (The read end belongs to a `true` process, which has exited when this returns.)
-fn closed_pipe() -> std::process::Stdio {
-    let mut reader = Command::new("true")
-        .stdin(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let writer = reader.stdin.take().unwrap();
-    assert!(reader.wait().unwrap().success());
-    writer.into()
-}
-
 /// Runs `simulate args` with standard output `stdout`.
 fn simulate_into(args: &[&std::ffi::OsStr], stdout: std::process::Stdio) -> Output {
     Command::new(env!("CARGO_BIN_EXE_simulate"))
@@ -469,24 +451,11 @@ fn a_closed_standard_output_ends_quietly_with_status_141() {
     }
 }
 
-/// Runs `simulate` with `args`; a run that has not ended after 60 s is killed and fails the
-/// test (what a blocked read of a named pipe would do).
+/// Runs `simulate args`, failing the test if it has not ended after a minute.
 fn simulate_within_a_minute(args: &[&std::ffi::OsStr]) -> Output {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_simulate"))
-        .args(args)
-        .stdout(std::process::Stdio::piped())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let start = std::time::Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if start.elapsed() > std::time::Duration::from_secs(60) {
-            child.kill().unwrap();
-            panic!("simulate {args:?} did not end within a minute");
-        }
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    }
-    child.wait_with_output().unwrap()
+    let mut command = Command::new(env!("CARGO_BIN_EXE_simulate"));
+    command.args(args);
+    output_within_a_minute(command)
 }
 
 #[test]

@@ -21,21 +21,8 @@ fn fail(error: &verify::InputError) -> ExitCode {
 /// The end of the program for a command line that clap did not run (`--help`, `--version`, a
 /// usage error): its text written without panicking, and clap's status.
 fn clap_exit(error: &clap::Error) -> ExitCode {
-    use std::io::IsTerminal;
-    let text = error.render();
-    let written = if error.use_stderr() {
-        match std::io::stderr().is_terminal() {
-            true => contact_input::console::err(format_args!("{}", text.ansi())),
-            false => contact_input::console::err(format_args!("{text}")),
-        }
-    } else {
-        match std::io::stdout().is_terminal() {
-            true => contact_input::console::out(format_args!("{}", text.ansi())),
-            false => contact_input::console::out(format_args!("{text}")),
-        }
-    };
-    match written {
-        Ok(()) => ExitCode::from(u8::try_from(error.exit_code()).unwrap_or(2)),
+    match contact_input::console::write_clap_message(error, 2) {
+        Ok(status) => ExitCode::from(status),
         Err(failed) => fail(&failed.into()),
     }
 }
