@@ -14,7 +14,15 @@
 //! `^` binds tighter than unary minus (`-x^2 = -(x^2)`) and its exponent may carry a sign
 //! (`2^-1 = 0.5`). Names are the evaluation variables (e.g. `x, y, z, t`), then the constants
 //! (`pi`, `e` and the user constants). Functions: `sqrt, exp, ln` (alias `log`)`, sin, cos, tan,
-//! tanh, abs` with one argument, `min, max, pow` with two. There is no implicit multiplication.
+//! tanh, abs` with one argument, `min, max, pow, pospow` with two. There is no implicit
+//! multiplication.
+//!
+//! `pospow(a, p)` is `max(0, a)^p`, the profile `(a)₊^p` of a field of limited smoothness (a
+//! stick–slip front, the edge of a contact zone), for a constant exponent `p > 0` that need
+//! not be an integer: where `a > 0` it and its derivatives are the classical ones, where
+//! `a ≤ 0` they are all zero. Unlike `max(0, a)^p` with a non-integer `p` (whose derivatives at
+//! a zero base are `0 · ∞ = NaN`), it can be differentiated everywhere; derivatives of order
+//! above `p` grow without bound as `a → 0⁺`, which is the point of the profile.
 //!
 //! # Evaluation on dual numbers
 //! - Exponents that are constant (after folding, e.g. `(y-a)^4`, `x^(1/2)`) are specialized:
@@ -244,6 +252,63 @@ mod tests {
         assert!(close(hess[(1, 1)], 12.0 * 0.04), "{hess:?}");
         assert!(close(hess[(0, 0)], 6.0 * (0.2 - 0.5)), "{hess:?}");
         assert_eq!(hess[(0, 1)], 0.0);
+    }
+
+    #[test]
+    fn pospow_is_the_power_of_the_positive_part_with_zero_derivatives_where_it_vanishes() {
+        // (x − 0.3)₊^2.5 (1 + t): value, ∂x, ∂x², ∂x∂t by the symbolic tape and by nested duals
+        let expression = parse("pospow(x - 0.3, 2.5)*(1 + t)");
+        let mut tape = Tape::new(4);
+        let value = tape.expression(&expression);
+        let dx = tape.derivative(value, 0);
+        let dxx = tape.derivative(dx, 0);
+        let dxt = tape.derivative(dx, 3);
+        let program = tape.compile(&[value, dx, dxx, dxt]);
+        for x in [-1.0, 0.2, 0.3, 0.300_000_001, 0.7, 1.3] {
+            let t = 0.4;
+            let d: f64 = x - 0.3;
+            let expected = if d > 0.0 {
+                [
+                    d.powf(2.5) * (1.0 + t),
+                    2.5 * d.powf(1.5) * (1.0 + t),
+                    3.75 * d.powf(0.5) * (1.0 + t),
+                    2.5 * d.powf(1.5),
+                ]
+            } else {
+                [0.0; 4]
+            };
+            let out: [f64; 4] = program.eval_array(&[x, 0.0, 0.0, t], &mut Vec::new());
+            for (computed, expected) in out.iter().zip(expected) {
+                assert!(
+                    computed.is_finite() && close(*computed, expected),
+                    "x = {x}: {out:?} against {expected:?}"
+                );
+            }
+            let at = SVector::<f64, 4>::from([x, 0.0, 0.0, t]);
+            let (dual_value, grad, hess) = hessian(
+                |v: SVector<Dual2SVec64<4>, 4>| expression.eval(v.as_slice()),
+                &at,
+            );
+            assert!(close(dual_value, expected[0]), "x = {x}: {dual_value}");
+            assert!(close(grad[0], expected[1]), "x = {x}: {grad:?}");
+            assert!(close(hess[(0, 0)], expected[2]), "x = {x}: {hess:?}");
+            assert!(close(hess[(0, 3)], expected[3]), "x = {x}: {hess:?}");
+        }
+        // the exponent is a positive constant
+        for (source, message) in [
+            ("pospow(x, y)", "must be a constant"),
+            ("pospow(x, 0)", "must be positive"),
+            ("pospow(x, -1.5)", "must be positive"),
+            ("pospow(x)", "takes 2 arguments"),
+        ] {
+            let error = parse_error(source).to_string();
+            assert!(error.contains(message), "{source}: {error}");
+        }
+        // folded when the argument is constant, like every function
+        assert_eq!(
+            parse("pospow(-2, 0.5) + pospow(4, 0.5)").eval(&[0.0; 4]),
+            2.0
+        );
     }
 
     #[test]
@@ -518,6 +583,17 @@ mod tests {
             Tree::Call(name, arguments) => {
                 if *name == "pow" {
                     power_reference(&arguments[0], &arguments[1], values)
+                } else if *name == "pospow" {
+                    let (a, constant, invalid) = reference(&arguments[0], values);
+                    let (p, _, _) = reference(&arguments[1], values);
+                    let value = if a > 0.0 {
+                        a.powf(p)
+                    } else if a.is_nan() {
+                        a
+                    } else {
+                        0.0
+                    };
+                    (value, constant, invalid)
                 } else {
                     let evaluated: Vec<_> = arguments
                         .iter()
@@ -612,8 +688,12 @@ mod tests {
                 (inner.clone(), inner.clone())
                     .prop_map(|(b, e)| Tree::Power(Box::new(b), Box::new(e))),
                 (unary_names, inner.clone()).prop_map(|(name, t)| Tree::Call(name, vec![t])),
-                (binary_names, inner.clone(), inner)
+                (binary_names, inner.clone(), inner.clone())
                     .prop_map(|(name, a, b)| Tree::Call(name, vec![a, b])),
+                (inner, 1u32..40).prop_map(|(a, quarters)| Tree::Call(
+                    "pospow",
+                    vec![a, Tree::Literal(format!("{}", f64::from(quarters) / 4.0))]
+                )),
             ]
         })
     }

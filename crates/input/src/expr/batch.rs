@@ -9,7 +9,7 @@
 //! point-by-point evaluation.
 
 use super::compiled::{Instruction, Program};
-use super::tree::{maximum, minimum, picks_first, UnaryFunction};
+use super::tree::{maximum, minimum, picks_first, positive_power, UnaryFunction};
 
 impl Program {
     /// Evaluate at `count` points; `inputs[v]` holds the `count` values of variable `v`.
@@ -178,6 +178,10 @@ impl Program {
                 Instruction::PowerReal(a, bits) => {
                     let p = f64::from_bits(bits);
                     map1(out, r(a), |x| x.powf(p))
+                }
+                Instruction::PositivePower(a, bits) => {
+                    let p = f64::from_bits(bits);
+                    map1(out, r(a), |x| positive_power(x, p))
                 }
                 Instruction::Apply(function, a) => apply(function, out, r(a)),
                 Instruction::Min(a, b) => map2(out, r(a), r(b), minimum),

@@ -44,7 +44,7 @@ use std::collections::HashMap;
 
 use num_dual::DualNum;
 
-use super::tree::{maximum, minimum, picks_first, Node, UnaryFunction};
+use super::tree::{maximum, minimum, picks_first, positive_power, Node, UnaryFunction};
 
 /// Index of a register (= of the instruction that writes it).
 pub(super) type Register = u32;
@@ -74,6 +74,8 @@ pub(super) enum Instruction {
     PowerInteger(Register, i32),
     /// `a^p`, constant non-integer `p` (`f64` bits): `powf`.
     PowerReal(Register, u64),
+    /// `max(0, a)^p`, constant `p` (`f64` bits): see `positive_power` in `super::tree`.
+    PositivePower(Register, u64),
     Apply(UnaryFunction, Register),
     Min(Register, Register),
     Max(Register, Register),
@@ -99,6 +101,7 @@ impl Instruction {
             Instruction::Negate(a)
             | Instruction::PowerInteger(a, _)
             | Instruction::PowerReal(a, _)
+            | Instruction::PositivePower(a, _)
             | Instruction::AddConstant(a, _)
             | Instruction::MultiplyConstant(a, _)
             | Instruction::SubtractConstant(a, _)
@@ -130,6 +133,7 @@ impl Instruction {
             Instruction::ConstantSubtract(c, a) => Instruction::ConstantSubtract(c, m(a)),
             Instruction::PowerInteger(a, n) => Instruction::PowerInteger(m(a), n),
             Instruction::PowerReal(a, p) => Instruction::PowerReal(m(a), p),
+            Instruction::PositivePower(a, p) => Instruction::PositivePower(m(a), p),
             Instruction::Apply(function, a) => Instruction::Apply(function, m(a)),
             Instruction::Min(a, b) => Instruction::Min(m(a), m(b)),
             Instruction::Max(a, b) => Instruction::Max(m(a), m(b)),
@@ -223,6 +227,7 @@ impl Builder {
             Node::Divide(a, b) => Instruction::Divide(self.lower(a), self.lower(b)),
             Node::PowerInteger(a, n) => Instruction::PowerInteger(self.lower(a), *n),
             Node::PowerReal(a, p) => Instruction::PowerReal(self.lower(a), p.to_bits()),
+            Node::PositivePower(a, p) => Instruction::PositivePower(self.lower(a), p.to_bits()),
             Node::PowerVariable(a, b) => {
                 // exp(ln(a)·b), as the tree evaluates it.
                 let base = self.lower(a);
@@ -330,6 +335,7 @@ impl Program {
                 Instruction::ConstantSubtract(c, a) => -r(a) + f64::from_bits(c),
                 Instruction::PowerInteger(a, n) => r(a).powi(n),
                 Instruction::PowerReal(a, bits) => r(a).powf(f64::from_bits(bits)),
+                Instruction::PositivePower(a, bits) => positive_power(r(a), f64::from_bits(bits)),
                 Instruction::Apply(function, a) => function.apply(r(a)),
                 Instruction::Min(a, b) => minimum(r(a), r(b)),
                 Instruction::Max(a, b) => maximum(r(a), r(b)),

@@ -208,6 +208,18 @@ impl Tape {
                 let slope = self.scale(Some(power), p);
                 self.multiply(slope, da)
             }
+            // (max(0, a)^p)' = p max(0, a)^(p−1) a', zero where a ≤ 0
+            Instruction::PositivePower(a, bits) => {
+                let da = d(self, a);
+                let p = f64::from_bits(bits);
+                if da.is_none() || p == 0.0 {
+                    None
+                } else {
+                    let power = self.emit(Instruction::PositivePower(a, (p - 1.0).to_bits()));
+                    let slope = self.scale(Some(power), p);
+                    self.multiply(slope, da)
+                }
+            }
             Instruction::Apply(function, a) => {
                 let da = d(self, a);
                 if da.is_none() {

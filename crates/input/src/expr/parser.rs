@@ -38,9 +38,10 @@ enum Function {
     Min,
     Max,
     Pow,
+    PositivePower,
 }
 
-const FUNCTION_NAMES: &str = "sqrt, exp, ln, log, sin, cos, tan, tanh, abs, min, max, pow";
+const FUNCTION_NAMES: &str = "sqrt, exp, ln, log, sin, cos, tan, tanh, abs, min, max, pow, pospow";
 
 fn lookup_function(name: &str) -> Option<Function> {
     Some(match name {
@@ -55,6 +56,7 @@ fn lookup_function(name: &str) -> Option<Function> {
         "min" => Function::Min,
         "max" => Function::Max,
         "pow" => Function::Pow,
+        "pospow" => Function::PositivePower,
         _ => return None,
     })
 }
@@ -328,7 +330,7 @@ impl Parser<'_> {
         self.leave();
         let expected = match function {
             Function::Unary(_) => 1,
-            Function::Min | Function::Max | Function::Pow => 2,
+            Function::Min | Function::Max | Function::Pow | Function::PositivePower => 2,
         };
         if arguments.len() != expected {
             let plural = if expected == 1 { "" } else { "s" };
@@ -367,6 +369,22 @@ impl Parser<'_> {
                     ..parsed
                 })
             }
+            (Function::PositivePower, Some(second)) => match second.node {
+                Node::Constant(exponent) if exponent.is_finite() && exponent > 0.0 => {
+                    let depth = first.depth + 1;
+                    let node = Node::PositivePower(Box::new(first.node), exponent);
+                    self.finish(node, start, end, depth)
+                }
+                Node::Constant(exponent) => Err(Self::error(
+                    name_token.column(),
+                    format!("the exponent of `pospow` must be positive, found {exponent}"),
+                )),
+                _ => Err(Self::error(
+                    name_token.column(),
+                    "the exponent of `pospow` must be a constant (a number or a named constant)"
+                        .to_string(),
+                )),
+            },
             _ => unreachable!("argument count checked against the function"),
         }
     }

@@ -39,6 +39,8 @@ pub(super) enum Node {
     PowerReal(Box<Node>, f64),
     /// `a^b`, variable `b`: `exp(b ln a)`.
     PowerVariable(Box<Node>, Box<Node>),
+    /// `pospow(a, p) = max(0, a)^p`, constant `p`: [`positive_power`].
+    PositivePower(Box<Node>, f64),
     Apply(UnaryFunction, Box<Node>),
     Min(Box<Node>, Box<Node>),
     Max(Box<Node>, Box<Node>),
@@ -59,6 +61,7 @@ pub(super) fn evaluate<T: DualNum<Primitive = f64> + Copy>(node: &Node, values: 
         Node::PowerVariable(base, exponent) => {
             (evaluate(base, values).ln() * evaluate(exponent, values)).exp()
         }
+        Node::PositivePower(base, exponent) => positive_power(evaluate(base, values), *exponent),
         Node::Apply(function, argument) => function.apply(evaluate(argument, values)),
         Node::Min(left, right) => minimum(evaluate(left, values), evaluate(right, values)),
         Node::Max(left, right) => maximum(evaluate(left, values), evaluate(right, values)),
@@ -85,6 +88,25 @@ impl UnaryFunction {
                 }
             }
         }
+    }
+}
+
+/// `max(0, a)^p` for a constant exponent `p`: `powf` where the real part of `a` is positive, and
+/// zero with every derivative where it is not (the function vanishes identically for `a ≤ 0`,
+/// so its one-sided derivatives from there are zero); a NaN argument is returned as is.
+///
+/// Where `a > 0` the derivatives are the classical ones, `p a^(p−1) a'`, …; those of order
+/// above `p` grow without bound as `a → 0⁺` (the point of the function: a profile of limited
+/// smoothness), and at `a = 0` the zero of the left side is taken.
+#[inline]
+pub(crate) fn positive_power<T: DualNum<Primitive = f64> + Copy>(argument: T, exponent: f64) -> T {
+    let real = argument.re();
+    if real > 0.0 {
+        argument.powf(exponent)
+    } else if real.is_nan() {
+        argument
+    } else {
+        T::from(0.0)
     }
 }
 
@@ -129,6 +151,7 @@ pub(super) fn mark_variables(node: &Node, used: &mut [bool]) {
         Node::Negate(operand)
         | Node::PowerInteger(operand, _)
         | Node::PowerReal(operand, _)
+        | Node::PositivePower(operand, _)
         | Node::Apply(_, operand) => mark_variables(operand, used),
         Node::Add(left, right)
         | Node::Subtract(left, right)
@@ -152,6 +175,7 @@ pub(super) fn children_are_constant(node: &Node) -> bool {
         Node::Negate(operand)
         | Node::PowerInteger(operand, _)
         | Node::PowerReal(operand, _)
+        | Node::PositivePower(operand, _)
         | Node::Apply(_, operand) => is_constant(operand),
         Node::Add(left, right)
         | Node::Subtract(left, right)
