@@ -328,6 +328,7 @@ fn problem<const D: usize>(mesh: Arc<Mesh<D>>) -> Problem<D> {
         },
         data: Data {
             body_force: None,
+            body_stress: None,
             traction: Some(Arc::new(|x: &[f64; D], _t: f64, _n: &[f64; D]| {
                 top_traction(x)
             })),

@@ -41,6 +41,7 @@
 //!         if x[1] > 1.0 - 1e-12 { [0.3 * t, -0.5] } else { [0.0, 0.0] }
 //!     })),
 //!     body_force: None,
+//!     body_stress: None,
 //!     contact_traction: None,
 //!     damage_supply: None,
 //!     damage_flux: None,

@@ -11,6 +11,7 @@
 //! Every closure `Fn(&[f64; D], f64) -> …` is such a field (blanket implementations, one point
 //! at a time), so `Arc::new(|x: &[f64; 2], t: f64| …)` keeps working as a [`VectorField`].
 
+use nalgebra::SMatrix;
 use std::sync::Arc;
 
 /// A vector field of (x, t) evaluated over a batch of points: f0.
@@ -66,6 +67,13 @@ pub trait BatchScalarField<const D: usize>: Send + Sync {
     }
 }
 
+/// A symmetric tensor field of (x, t) evaluated over a batch of points: a stress given as data
+/// ([`Data::body_stress`](crate::model::problem::Data::body_stress)).
+pub trait BatchTensorField<const D: usize>: Send + Sync {
+    /// `out[p] = S(points[p], time)` for every p (`out.len() == points.len()`).
+    fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [SMatrix<f64, D, D>]);
+}
+
 /// A scalar boundary datum of (x, t, outward normal) over a batch: the damage flux κ ∂β/∂ν.
 pub trait BatchBoundaryScalarField<const D: usize>: Send + Sync {
     /// `out[p] = g(points[p], time, normals[p])` for every p.
@@ -116,8 +124,21 @@ where
     }
 }
 
+impl<const D: usize, F> BatchTensorField<D> for F
+where
+    F: Fn(&[f64; D], f64) -> SMatrix<f64, D, D> + Send + Sync,
+{
+    fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [SMatrix<f64, D, D>]) {
+        for (x, value) in points.iter().zip(out) {
+            *value = self(x, time);
+        }
+    }
+}
+
 /// A vector field of (x, t): f0.
 pub type VectorField<const D: usize> = Arc<dyn BatchVectorField<D>>;
+/// A shared [`BatchTensorField`].
+pub type TensorField<const D: usize> = Arc<dyn BatchTensorField<D>>;
 /// A vector boundary datum of (x, t, outward normal): f2, f3.
 pub type BoundaryVectorField<const D: usize> = Arc<dyn BatchBoundaryVectorField<D>>;
 /// A scalar field of (x, t): q.

@@ -4,7 +4,7 @@
 use crate::model::dirichlet::PrescribedDisplacement;
 use crate::model::fields::{
     BoundaryScalarField, BoundaryVectorField, PointScalarField, ScalarField, StaticScalarField,
-    StaticVectorField, VectorField,
+    StaticVectorField, TensorField, VectorField,
 };
 use crate::model::laws::{ContactLaw, DamageSource, Elasticity, Viscosity};
 use std::sync::Arc;
@@ -29,6 +29,11 @@ pub struct Model<const D: usize> {
 pub struct Data<const D: usize> {
     /// Body force f0 (2.3).
     pub body_force: Option<VectorField<D>>,
+    /// A stress S given as data: adds ∫_Ω S : ε(w) to the load of (5.1). By Green's formula this
+    /// is the body force −Div S with the traction S ν on ∂Ω, written so that S is integrated
+    /// rather than differentiated: the form in which manufactured data of limited smoothness
+    /// keep their quadrature error at the order of the interpolation error (docs/model.md §5).
+    pub body_stress: Option<TensorField<D>>,
     /// Traction f2 on Γ2 (2.6).
     pub traction: Option<BoundaryVectorField<D>>,
     /// Extra traction f3 on Γ3 (used by manufactured solutions, docs/model.md §5): adds ∫_Γ3 f3·w.

@@ -3,8 +3,9 @@
 //! each part with their points, normals and weighted basis values) computed once per mesh, and
 //! per step the load vectors
 //!
-//! - velocity step (5.1): (f(t_n), w)_V = ∫_Ω f0·w + ∫_Γ2 f2·w (+ ∫_Γ3 f3·w, docs/model.md §5),
-//!   minus the elastic term (G(ε(u_{n−1}), β_{n−1}), ε(w))_Q;
+//! - velocity step (5.1): (f(t_n), w)_V = ∫_Ω f0·w + ∫_Γ2 f2·w (and ∫_Γ3 f3·w, docs/model.md
+//!   §5, and ∫_Ω S : ε(w) for a stress S given as data), minus the elastic term
+//!   (G(ε(u_{n−1}), β_{n−1}), ε(w))_Q;
 //! - damage step (5.2): (φ(ε(u_{n−1}), β_{n−1}) + q(t_n), ζ) + ∫_Γ κ ∂β/∂ν ζ.
 //!
 //! Each field is evaluated once per step over all quadrature points of a chunk of cells (rayon
@@ -19,7 +20,7 @@ use crate::fem::space::{FacetRule, LagrangeSpace, Tabulation};
 use crate::model::problem::{Data, Model};
 use crate::scheme::assembly::{field_strain, physical_gradients, FacetPoints};
 use crate::scheme::state::State;
-use nalgebra::SVector;
+use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
 
 /// Cells per parallel task of the load assembly (the batch size of field evaluations is this
@@ -342,11 +343,17 @@ impl<const D: usize> LoadQuadrature<D> {
                 (&own_force, &own_supply)
             }
         };
+        let mut stress = Vec::new();
+        if let Some(body_stress) = &data.body_stress {
+            stress = vec![SMatrix::<f64, D, D>::zeros(); points.len()];
+            body_stress.evaluate(points, time, &mut stress);
+        }
         let chunk = Chunk {
             first,
             weights: &self.weights[range],
             force,
             supply,
+            stress: &stress,
         };
         // P1 on affine simplices (D + 1 nodes): the basis gradients, hence ε(u_{n−1}), are
         // constant per cell.
@@ -409,8 +416,15 @@ impl<const D: usize> LoadQuadrature<D> {
         for (c, out) in out.chunks_exact_mut(local).enumerate() {
             let cell_points = c * nq..(c + 1) * nq;
             let weights = &chunk.weights[cell_points.clone()];
-            let stress =
+            let mut stress =
                 elasticity.weighted_stress_sum(&strains[c], &betas[cell_points.clone()], weights);
+            if !chunk.stress.is_empty() {
+                // the data's stress S enters as −S: the load is ∫ (S − G) : ε(w)
+                for (weight, body_stress) in weights.iter().zip(&chunk.stress[cell_points.clone()])
+                {
+                    stress -= body_stress * *weight;
+                }
+            }
             for (a, grad) in gradients[c].iter().enumerate() {
                 let internal = stress * grad;
                 for i in 0..D {
@@ -485,7 +499,10 @@ impl<const D: usize> LoadQuadrature<D> {
                 let values = &tab.values[q * n..(q + 1) * n];
                 let weight = chunk.weights[p];
                 let grads = &point_grads[p * n..(p + 1) * n];
-                let stress = elasticity.stress(&strains[p], betas[p]);
+                let mut stress = elasticity.stress(&strains[p], betas[p]);
+                if !chunk.stress.is_empty() {
+                    stress -= chunk.stress[p];
+                }
                 for (a, grad) in grads.iter().enumerate() {
                     let internal = stress * grad;
                     for i in 0..D {
@@ -538,12 +555,14 @@ impl<const D: usize> LoadQuadrature<D> {
 }
 
 /// The per-point data of a chunk of cells for [`LoadQuadrature::cell_chunk`]: its first cell,
-/// reference weight × |det J| of its points, f0 and q there (empty when the data lack them).
+/// reference weight × |det J| of its points, f0, q and the data's stress S there (empty when
+/// the data lack them).
 struct Chunk<'a, const D: usize> {
     first: usize,
     weights: &'a [f64],
     force: &'a [[f64; D]],
     supply: &'a [f64],
+    stress: &'a [SMatrix<f64, D, D>],
 }
 
 #[cfg(test)]
@@ -583,6 +602,7 @@ mod tests {
     fn data<const D: usize>() -> Data<D> {
         Data {
             body_force: None,
+            body_stress: None,
             traction: None,
             contact_traction: None,
             damage_supply: None,
@@ -698,6 +718,92 @@ mod tests {
         );
         let sides3 = [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]];
         loads_match_the_pointwise_assembly(
+            Mesh::box_mesh([0.0; 3], [1.0, 0.8, 0.6], [3, 3, 2], sides3).unwrap(),
+        );
+    }
+
+    /// A stress S given as data is the body force −Div S with the traction Sν (Green's
+    /// formula): for a field S linear in x, which every rule integrates exactly, both loads
+    /// agree at every node off Γ1 (on Γ1 the stress form also holds the reaction Sν, which the
+    /// scheme drops with the constrained rows).
+    fn stress_form_matches_its_divergence_and_traction<const D: usize>(mesh: Mesh<D>) {
+        use nalgebra::SMatrix;
+        // S_ij(x) = c_ij + Σ_k a_ijk x_k, symmetric
+        let stress = |x: &[f64; D]| {
+            SMatrix::<f64, D, D>::from_fn(|i, j| {
+                let (low, high) = (i.min(j), i.max(j));
+                let mut value = 0.3 + 0.1 * (low + 2 * high) as f64;
+                for (k, xk) in x.iter().enumerate() {
+                    value += 0.05 * ((low + 1) * (high + 2) + k) as f64 * xk;
+                }
+                value
+            })
+        };
+        // −Div S: the constant −Σ_j ∂_j S_ij
+        let divergence: [f64; D] = std::array::from_fn(|i| {
+            -(0..D)
+                .map(|j| {
+                    let (low, high) = (i.min(j), i.max(j));
+                    0.05 * ((low + 1) * (high + 2) + j) as f64
+                })
+                .sum::<f64>()
+        });
+        let traction = move |x: &[f64; D], _t: f64, normal: &[f64; D]| {
+            let sigma_n = stress(x) * SVector::<f64, D>::from_column_slice(normal);
+            std::array::from_fn(|i| sigma_n[i])
+        };
+        let mesh = Arc::new(mesh);
+        for degree in [1, 2] {
+            let space = LagrangeSpace::new(mesh.clone(), degree).unwrap();
+            let state = State {
+                step: 0,
+                time: 0.0,
+                displacement: vec![0.0; space.num_nodes() * D],
+                velocity: vec![0.0; space.num_nodes() * D],
+                damage: vec![1.0; space.num_nodes()],
+                previous_damage: Vec::new(),
+            };
+            let model = model::<D>();
+            let stress_form = Data {
+                body_stress: Some(Arc::new(move |x: &[f64; D], _t: f64| stress(x))),
+                ..data::<D>()
+            };
+            let divergence_form = Data {
+                body_force: Some(Arc::new(move |_x: &[f64; D], _t: f64| divergence)),
+                traction: Some(Arc::new(traction)),
+                contact_traction: Some(Arc::new(traction)),
+                ..data::<D>()
+            };
+            let quadrature = LoadQuadrature::new(&space);
+            let (weak, _) = quadrature.assemble(&space, &model, &stress_form, 0.0, &state, None);
+            let (strong, _) =
+                quadrature.assemble(&space, &model, &divergence_form, 0.0, &state, None);
+            let on_gamma1 = space.boundary_nodes(BoundaryPart::Dirichlet);
+            let scale = strong.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+            assert!(scale > 0.0);
+            let mut compared = 0;
+            for node in (0..space.num_nodes()).filter(|n| !on_gamma1.contains(n)) {
+                for i in 0..D {
+                    let (w, s) = (weak[node * D + i], strong[node * D + i]);
+                    assert!(
+                        (w - s).abs() <= 1e-12 * scale,
+                        "D = {D}, l = {degree}, node {node}, component {i}: {w} vs {s}"
+                    );
+                    compared += 1;
+                }
+            }
+            assert!(compared > 0);
+        }
+    }
+
+    #[test]
+    fn a_stress_given_as_data_is_its_divergence_with_its_traction() {
+        let sides2 = [[Dirichlet, Neumann], [Contact, Neumann]];
+        stress_form_matches_its_divergence_and_traction(
+            Mesh::box_mesh([0.0, 0.0], [1.0, 0.7], [5, 4], sides2).unwrap(),
+        );
+        let sides3 = [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]];
+        stress_form_matches_its_divergence_and_traction(
             Mesh::box_mesh([0.0; 3], [1.0, 0.8, 0.6], [3, 3, 2], sides3).unwrap(),
         );
     }

@@ -40,6 +40,7 @@ pub fn model<const D: usize>() -> Model<D> {
 pub fn quiet_data<const D: usize>() -> Data<D> {
     Data {
         body_force: None,
+        body_stress: None,
         traction: None,
         contact_traction: None,
         damage_supply: None,

@@ -206,6 +206,7 @@ impl<const D: usize> LoadExpressions<D> {
         let gap_watch = load_watch.clone();
         Data {
             body_force,
+            body_stress: None,
             traction,
             contact_traction: None,
             damage_supply: None,
