@@ -378,13 +378,13 @@ fn case_reader_rejects_damage_outside_unit_interval() {
 }
 
 #[test]
-fn case_reader_rejects_stick_traction_of_unit_size() {
+fn case_reader_rejects_stick_traction_beyond_the_friction_bound() {
     let message = error_of(
         "stick_traction = [\"0.5\", \"0\"]",
-        "stick_traction = [\"1.0\", \"0\"]",
+        "stick_traction = [\"1.01\", \"0\"]",
     );
     assert!(
-        message.contains("exact.stick_traction") && message.contains("≥ 1"),
+        message.contains("exact.stick_traction") && message.contains("> 1"),
         "{message}"
     );
 }

@@ -7,7 +7,8 @@
 use crate::domain::{check_levels, read_mesh, sample_points, Domain};
 use crate::expr::Expr;
 use crate::manufactured::data::{
-    BodyForce, ContactTraction, DamageFlux, DamageSupply, ExactPrograms, ManufacturedData, Traction,
+    BodyForce, BodyStress, ContactLoad, ContactTraction, DamageFlux, DamageSupply, ExactPrograms,
+    ManufacturedData, Traction,
 };
 use crate::manufactured::{value, ExactSolution, Laws};
 use crate::InputError;
@@ -68,6 +69,43 @@ pub struct CaseFile {
     /// exact field); the other components of the side are free with the exact traction σν.
     #[serde(default)]
     pub displacement: Vec<CaseDisplacementFile>,
+    /// How the manufactured loads enter (5.1): `"divergence"` (default) or `"stress"`
+    /// ([`LoadForm`]).
+    #[serde(default)]
+    pub loads: LoadForm,
+    /// `[regularity]`: the exponents of limited-smoothness profiles that `verify --regularity`
+    /// may sweep ([`crate::regularity`]).
+    #[serde(default)]
+    pub regularity: Option<RegularityFile>,
+}
+
+/// How the manufactured data enter the load of (5.1), ⟨f, w⟩ (docs/model.md §5). Both forms are
+/// the same functional for the exact σ; they differ in what the quadrature integrates.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LoadForm {
+    /// ∫_Ω f0·w + ∫_Γ2 f2·w + ∫_Γ3 f3·w with f0 = −Div σ, f2 = σν, f3 = σν + p_ν ν + p_τ ξ̂: the
+    /// data of the model's own form. The quadrature integrates second derivatives of u.
+    #[default]
+    Divergence,
+    /// ∫_Ω σ : ε(w) + ∫_Γ3 (p_ν ν + p_τ ξ̂)·w (Green's formula; w = 0 on the fixed components of
+    /// Γ1): the quadrature integrates first derivatives of u only. For fields of limited
+    /// smoothness (a profile d₊^p across a front inside elements, [`crate::regularity`]),
+    /// f0 ∝ d^{p−2} is integrated with an error of order h^{p−1}, which would hide the rate
+    /// of the scheme; σ ∝ d^{p−1} is integrated with an error of the order of the
+    /// interpolation error h^{p−1/2}.
+    Stress,
+}
+
+/// `[regularity]` of a case file: the constants that are exponents p of profiles `(d)₊^p` of
+/// the displacement across a front (`pospow(x - x_front, p)`: d is the distance to a plane
+/// that crosses the body), so that `verify --regularity p=…` knows what a value of p implies
+/// (the rules of [`crate::regularity::Profile`]).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RegularityFile {
+    /// Names of constants of `[constants]`.
+    pub exponents: Vec<String>,
 }
 
 /// One `[[displacement]]` of a case file: a box side of Γ1 with prescribed components.
@@ -88,7 +126,7 @@ pub struct ExactFile {
     pub u: Vec<String>,
     /// β.
     pub beta: String,
-    /// ξ components (stick traction field, |ξ_τ| < 1); default 0.
+    /// ξ components (stick traction field, |ξ_τ| ≤ 1); default 0.
     #[serde(default)]
     pub stick_traction: Option<Vec<String>>,
     /// η (damage bound multiplier); default 0.
@@ -435,7 +473,7 @@ pub fn parse_case_file(text: &str, origin: &str) -> Result<CaseFile, InputError>
 
 impl<const D: usize> Case<D> {
     /// Validates the case file and builds the laws and exact fields. Checks, at sampled points,
-    /// that u = 0 on Γ1, β ∈ [0, 1], |ξ_τ| < 1 on Γ3, η ∈ ∂ψ_K(β) and that g is finite on Γ3
+    /// that u = 0 on Γ1, β ∈ [0, 1], |ξ_τ| ≤ 1 on Γ3, η ∈ ∂ψ_K(β) and that g is finite on Γ3
     /// (a gap may move and be negative).
     pub fn new(file: CaseFile, origin: &str) -> Result<Self, InputError> {
         if file.dim != D {
@@ -447,6 +485,9 @@ impl<const D: usize> Case<D> {
         }
         positive(FileKind::Case, origin, "final_time", file.final_time)?;
         check_study_definitions(origin, &file.studies, file.domain.is_mesh())?;
+        if let Some(regularity) = &file.regularity {
+            crate::regularity::check_exponents(origin, regularity, &file.constants)?;
+        }
         let (domain, prescribed) = build_domain::<D>(&file, origin)?;
         let constants = &file.constants;
         if !file.scheme.damage {
@@ -734,11 +775,13 @@ impl<const D: usize> Case<D> {
                             - normal_part * normal_part)
                             .max(0.0)
                             .sqrt();
-                        if tangential >= 1.0 {
+                        // ξ ∈ ∂|·|(0), the closed unit ball: |ξ_τ| = 1 is the traction of a
+                        // stick point at the friction bound (next to a stick–slip front)
+                        if tangential > 1.0 + 1e-12 {
                             return Err(case_error(
                                 origin,
                                 "exact.stick_traction",
-                                format!("|ξ_τ| = {tangential} ≥ 1 on Γ3 {}", at()),
+                                format!("|ξ_τ| = {tangential} > 1 on Γ3 {}", at()),
                             ));
                         }
                     }
@@ -768,6 +811,9 @@ impl<const D: usize> Case<D> {
         // A copy of the programs with empty caches: each run caches its own points.
         let programs = Arc::new(ExactPrograms::clone(&self.programs));
         let data = ManufacturedData::new(programs, laws.clone());
+        // in stress form σ enters as ∫ σ : ε(w): no f0, and no traction σν on Γ2 or on the
+        // free components of prescribed sides (Green's formula holds them)
+        let divergence = self.file.loads == LoadForm::Divergence;
         let (eu, eb, eg) = (exact.clone(), exact.clone(), exact.clone());
         let mesh = self.mesh(level)?;
         let dirichlet = self
@@ -795,9 +841,11 @@ impl<const D: usize> Case<D> {
                     ),
                     facets: mesh.boundary_facets_where(|x| x[side.axis] == coordinate),
                     components,
-                    traction: Some(Arc::new(move |x: &[f64; D], t: f64, n: &[f64; D]| {
-                        et.traction(&lt, x, t, n)
-                    })),
+                    traction: divergence.then(|| {
+                        Arc::new(move |x: &[f64; D], t: f64, n: &[f64; D]| {
+                            et.traction(&lt, x, t, n)
+                        }) as _
+                    }),
                 }
             })
             .collect();
@@ -806,9 +854,14 @@ impl<const D: usize> Case<D> {
             degree,
             model: laws.clone(),
             data: Data {
-                body_force: Some(Arc::new(BodyForce(data.clone()))),
-                traction: Some(Arc::new(Traction(data.clone()))),
-                contact_traction: Some(Arc::new(ContactTraction(data.clone()))),
+                body_force: divergence.then(|| Arc::new(BodyForce(data.clone())) as _),
+                body_stress: (!divergence).then(|| Arc::new(BodyStress(data.clone())) as _),
+                traction: divergence.then(|| Arc::new(Traction(data.clone())) as _),
+                contact_traction: Some(if divergence {
+                    Arc::new(ContactTraction(data.clone())) as _
+                } else {
+                    Arc::new(ContactLoad(data.clone())) as _
+                }),
                 damage_supply: Some(Arc::new(DamageSupply(data.clone()))),
                 damage_flux: Some(Arc::new(DamageFlux(data))),
                 gap: Arc::new(move |x, t| value(&eg.gap, x, t)),

@@ -82,6 +82,12 @@ pub struct Cli {
     /// Ignore the results cache `<out>/runs/`: recompute every run.
     #[arg(long)]
     pub fresh: bool,
+    /// Regularity sweep: run the case's h-study once for each value of an exponent named in its
+    /// `[regularity]` table, NAME=FROM:TO:STEP (both ends included) or NAME=V1,V2,…, and
+    /// report the observed rates against the exponent (default folder
+    /// `out/<case>/l<order>/regularity-<NAME>`).
+    #[arg(long, value_name = "NAME=FROM:TO:STEP")]
+    pub regularity: Option<String>,
 }
 
 /// The options that select a study (of a single-process run and of `verify plan`).
@@ -389,6 +395,14 @@ fn folder_and_name(path: &Path) -> (PathBuf, Vec<String>) {
 
 /// Checks the options of a study, then plans it; returns the manifest and the report folder.
 fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), InputError> {
+    check_study_options(args)?;
+    let (text, origin) = load_case(args)?;
+    plan_case(args, &text, &origin)
+}
+
+/// Checks the options of a study that do not depend on the case: the order, the threads and the
+/// study names.
+fn check_study_options(args: &StudyArgs) -> Result<(), InputError> {
     if !(1..=2).contains(&args.order) {
         return Err(InputError::InvalidInput(format!(
             "--order must be 1 or 2, got {}",
@@ -396,7 +410,17 @@ fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), InputError> {
         )));
     }
     set_threads(args.threads)?;
-    check_study_names(&args.studies)?;
+    check_study_names(&args.studies)
+}
+
+/// Plans the studies `args` asks for of the case `text` (from `origin`): the case is validated in
+/// full and its studies are checked against the memory first. Returns the manifest and the
+/// report folder.
+fn plan_case(
+    args: &StudyArgs,
+    text: &str,
+    origin: &str,
+) -> Result<(Manifest, PathBuf), InputError> {
     let memory_limit = match args.memory_limit {
         None => contact_damage::algebra::memory::default_limit(),
         Some(gib) if gib.is_finite() && gib > 0.0 => gib * contact_damage::algebra::memory::GIB,
@@ -406,11 +430,10 @@ fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), InputError> {
             )))
         }
     };
-    let (text, origin) = load_case(args)?;
     // the case is validated in full (laws, exact fields) and its studies are checked against
     // the memory before anything is planned or created
-    let file = parse_case_file(&text, &origin)?;
-    with_case(file.clone(), &origin, |case| {
+    let file = parse_case_file(text, origin)?;
+    with_case(file.clone(), origin, |case| {
         let (order, studies, levels) = (args.order, &args.studies, args.levels);
         match case {
             CaseRef::Two(case) => {
@@ -421,7 +444,7 @@ fn plan_study(args: &StudyArgs) -> Result<(Manifest, PathBuf), InputError> {
             }
         }
     })?;
-    let manifest = plan(&text, &origin, args.order, &args.studies, args.levels)?;
+    let manifest = plan(text, origin, args.order, &args.studies, args.levels)?;
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from(DEFAULT_OUT)
             .join(&file.name)
@@ -502,12 +525,13 @@ impl Outcome {
 }
 
 /// Merges the results of `manifest`, prints the tables and writes the reports into `out`;
-/// returns the outcome: the combined verdict, or a failure when a run has no valid result.
+/// returns the outcome (the combined verdict, or a failure when a run has no valid result) and
+/// the studies (none in that case).
 fn merge_and_report(
     manifest: &Manifest,
     results: &Path,
     out: &Path,
-) -> Result<Outcome, InputError> {
+) -> Result<(Outcome, Vec<StudyResult>), InputError> {
     let merged = merge(manifest, results)?;
     let folder = if out.as_os_str().is_empty() {
         Path::new(".")
@@ -524,7 +548,7 @@ fn merge_and_report(
         }
         outln!("no reports written")?;
         outln!("verdict: INCOMPLETE")?;
-        return Ok(Outcome::Failure);
+        return Ok((Outcome::Failure, Vec::new()));
     }
     for study in &merged.studies {
         print_study(study)?;
@@ -543,13 +567,16 @@ fn merge_and_report(
     }
     let verdict = merged.verdict();
     outln!("verdict: {} ({})", verdict.label(), verdict.explanation())?;
-    Ok(Outcome::of(verdict))
+    Ok((Outcome::of(verdict), merged.studies))
 }
 
 /// Runs the command line; returns how it ended ([`Outcome`]).
 pub fn main_with(cli: Cli) -> Result<Outcome, InputError> {
     match cli.command {
-        None => run_in_process(&cli.study, cli.fresh),
+        None => match &cli.regularity {
+            Some(sweep) => run_regularity(&cli.study, sweep, cli.fresh),
+            None => run_in_process(&cli.study, cli.fresh),
+        },
         Some(Command::Plan { study, manifest }) => {
             let (planned, out) = plan_study(&study)?;
             let path = manifest.unwrap_or_else(|| out.join("manifest.json"));
@@ -632,7 +659,7 @@ pub fn main_with(cli: Cli) -> Result<Outcome, InputError> {
                 &out
             };
             contact_input::written::check_replaceable(folder, &report_names(&planned), overwrite)?;
-            merge_and_report(&planned, &results, &out)
+            Ok(merge_and_report(&planned, &results, &out)?.0)
         }
     }
 }
@@ -641,24 +668,116 @@ pub fn main_with(cli: Cli) -> Result<Outcome, InputError> {
 /// `<out>/runs/` does not hold yet (all with `fresh`), merge and report.
 fn run_in_process(args: &StudyArgs, fresh: bool) -> Result<Outcome, InputError> {
     let (manifest, out) = plan_study(args)?;
-    check_out(&out)?;
-    let mut names = report_names(&manifest);
+    check_planned_out(&manifest, &out, args.overwrite)?;
+    Ok(run_planned(&manifest, &out, fresh)?.0)
+}
+
+/// Checks that the reports of `manifest` and the manifest itself can be written into `out`.
+fn check_planned_out(manifest: &Manifest, out: &Path, overwrite: bool) -> Result<(), InputError> {
+    check_out(out)?;
+    let mut names = report_names(manifest);
     names.push("manifest.json".to_string());
-    contact_input::written::check_replaceable(&out, &names, args.overwrite)?;
+    contact_input::written::check_replaceable(out, &names, overwrite)
+}
+
+/// Runs a planned study in this process: writes the manifest into `out`, runs the runs that
+/// `<out>/runs/` does not hold yet (all with `fresh`), merges and reports.
+fn run_planned(
+    manifest: &Manifest,
+    out: &Path,
+    fresh: bool,
+) -> Result<(Outcome, Vec<StudyResult>), InputError> {
     let started = std::time::Instant::now();
     let path = out.join("manifest.json");
-    write_manifest(&path, &manifest)?;
-    contact_input::written::record(&out, std::slice::from_ref(&path))?;
+    write_manifest(&path, manifest)?;
+    contact_input::written::record(out, std::slice::from_ref(&path))?;
     let results = out.join("runs");
     let all: Vec<usize> = (0..manifest.runs.len()).collect();
-    let executed = execute_manifest(&manifest, &all, &results, fresh)?;
+    let executed = execute_manifest(manifest, &all, &results, fresh)?;
     outln!(
         "cached: {} runs, computed: {} runs (results in {})",
         executed.cached,
         executed.computed,
         results.display()
     )?;
-    let outcome = merge_and_report(&manifest, &results, &out)?;
+    let outcome = merge_and_report(manifest, &results, out)?;
+    outln!("{:.1} s", started.elapsed().as_secs_f64())?;
+    Ok(outcome)
+}
+
+/// `verify --regularity NAME=…`: the h-study of the case for each value of the exponent NAME
+/// ([`crate::regularity`]), each in `<out>/NAME=<value>/`, then the sweep's reports in `<out>`.
+/// Every value is planned (its case validated, its studies checked against the memory) and
+/// every output folder checked before the first run. The outcome is a failure when a run has
+/// no result or a study whose case satisfies (5.7) fails the theorem's rate; outside the
+/// assumptions the rates are reported, not judged.
+fn run_regularity(args: &StudyArgs, sweep: &str, fresh: bool) -> Result<Outcome, InputError> {
+    use crate::regularity::report::{report_names, table, write_reports, SweepPoint};
+    use crate::regularity::{case_with, check_sweep, parse_sweep, value_folder, Profile};
+    check_study_options(args)?;
+    let sweep = parse_sweep(sweep)?;
+    let (text, origin) = load_case(args)?;
+    let file = parse_case_file(&text, &origin)?;
+    check_sweep(&sweep, &file, &origin)?;
+    let out = args.out.clone().unwrap_or_else(|| {
+        PathBuf::from(DEFAULT_OUT)
+            .join(&file.name)
+            .join(format!("l{}", args.order))
+            .join(format!("regularity-{}", sweep.name))
+    });
+    let mut planned = Vec::with_capacity(sweep.values.len());
+    for &value in &sweep.values {
+        let (value_text, value_origin) = case_with(&text, &origin, &sweep.name, value)?;
+        let value_args = StudyArgs {
+            studies: vec!["h".to_string()],
+            out: Some(out.join(value_folder(&sweep.name, value))),
+            ..args.clone()
+        };
+        let (manifest, value_out) = plan_case(&value_args, &value_text, &value_origin)?;
+        planned.push((value, manifest, value_out));
+    }
+    check_out(&out)?;
+    contact_input::written::check_replaceable(&out, &report_names(args.order), args.overwrite)?;
+    for (_, manifest, value_out) in &planned {
+        check_planned_out(manifest, value_out, args.overwrite)?;
+    }
+    let started = std::time::Instant::now();
+    let mut points = Vec::with_capacity(planned.len());
+    let mut outcome = Outcome::Success;
+    for (value, manifest, value_out) in &planned {
+        outln!(
+            "
+{} = {value}",
+            sweep.name
+        )?;
+        let (value_outcome, studies) = run_planned(manifest, value_out, fresh)?;
+        let Some(study) = studies.into_iter().next() else {
+            outcome = Outcome::Failure;
+            continue;
+        };
+        let judged = Profile { exponent: *value }.inside_assumptions(args.order);
+        if value_outcome == Outcome::Failure && judged {
+            outcome = Outcome::Failure;
+        }
+        points.push(SweepPoint {
+            value: *value,
+            study,
+        });
+    }
+    outln!(
+        "
+{}",
+        table(&sweep, &points)
+    )?;
+    if points.is_empty() {
+        outln!("no study has a result: no sweep reports written")?;
+        return Ok(Outcome::Failure);
+    }
+    let written = write_reports(&out, &file.name, &origin, args.order, &sweep, &points)?;
+    contact_input::written::record(&out, &written)?;
+    for path in written {
+        outln!("wrote {}", path.display())?;
+    }
     outln!("{:.1} s", started.elapsed().as_secs_f64())?;
     Ok(outcome)
 }

@@ -87,7 +87,7 @@ pub struct ExactSolution<const D: usize> {
     pub displacement: [Expr; D],
     /// β(x, t).
     pub damage: Expr,
-    /// ξ(x, t): the stick traction field (its tangential part is used), |ξ_τ| < 1.
+    /// ξ(x, t): the stick traction field (its tangential part is used), |ξ_τ| ≤ 1.
     pub stick_traction: [Expr; D],
     /// η(x, t) ∈ ∂ψ_K(β): ≥ 0 where β = 1, ≤ 0 where β = 0, 0 in between.
     pub damage_multiplier: Expr,
@@ -339,6 +339,23 @@ pub fn contact_traction_at<const D: usize>(
         + nu * laws.contact.normal_pressure(r)
         + friction_direction(state, stick_traction, &nu) * laws.contact.friction_bound(r);
     std::array::from_fn(|i| f3[i])
+}
+
+/// f3 − σν = p_ν(r) ν + p_τ(r) ξ̂ on Γ3: the contact part of f3, the Γ3 load of the data in
+/// stress form (where σ enters as ∫_Ω σ : ε(w), [`crate::case::LoadForm::Stress`]).
+#[inline]
+pub fn contact_load_at<const D: usize>(
+    laws: &Laws<D>,
+    state: &PointState<D>,
+    stick_traction: &SVector<f64, D>,
+    gap: f64,
+    normal: &[f64; D],
+) -> [f64; D] {
+    let nu = SVector::<f64, D>::from_column_slice(normal);
+    let r = state.displacement.dot(&nu) - gap;
+    let load = nu * laws.contact.normal_pressure(r)
+        + friction_direction(state, stick_traction, &nu) * laws.contact.friction_bound(r);
+    std::array::from_fn(|i| load[i])
 }
 
 /// β, β̇, Δβ and η at one point (what the damage supply needs besides ∇u).

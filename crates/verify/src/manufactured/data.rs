@@ -13,11 +13,12 @@ use super::programs::{
     Columns, Quantity, QuantityProgram, BATCH,
 };
 use super::{
-    contact_traction_at, damage_flux_at, damage_supply_of_source, traction_at, DamageJet,
-    ExactSolution, Laws, PointState,
+    contact_load_at, contact_traction_at, damage_flux_at, damage_supply_of_source, stress_at,
+    traction_at, DamageJet, ExactSolution, Laws, PointState,
 };
 use contact_damage::model::fields::{
-    BatchBoundaryScalarField, BatchBoundaryVectorField, BatchScalarField, BatchVectorField,
+    BatchBoundaryScalarField, BatchBoundaryVectorField, BatchScalarField, BatchTensorField,
+    BatchVectorField,
 };
 use contact_damage::model::laws::{FieldJets, Tensor};
 use nalgebra::{SMatrix, SVector};
@@ -310,6 +311,48 @@ impl<const D: usize> BatchBoundaryVectorField<D> for ContactTraction<D> {
                 let gap = columns.get(Quantity::Gap);
                 point_states(columns, count, |p, state| {
                     out[offset + p] = contact_traction_at(
+                        &data.laws,
+                        state,
+                        &vector_at(&xi, p),
+                        gap[p],
+                        &normals[offset + p],
+                    );
+                });
+            });
+    }
+}
+
+/// The exact stress σ = 𝒜ε(u̇) + G(ε(u), β) as the data's stress S (loads in stress form).
+pub struct BodyStress<const D: usize>(pub Arc<ManufacturedData<D>>);
+/// f3 − σν = p_ν ν + p_τ ξ̂ on Γ3 (loads in stress form).
+pub struct ContactLoad<const D: usize>(pub Arc<ManufacturedData<D>>);
+
+impl<const D: usize> BatchTensorField<D> for BodyStress<D> {
+    fn evaluate(&self, points: &[[f64; D]], time: f64, out: &mut [SMatrix<f64, D, D>]) {
+        let data = &self.0;
+        data.programs
+            .boundary
+            .for_batches(points, time, |offset, columns| {
+                let count = points[offset..].len().min(BATCH);
+                point_states(columns, count, |p, state| {
+                    out[offset + p] = stress_at(&data.laws, state);
+                });
+            });
+    }
+}
+
+impl<const D: usize> BatchBoundaryVectorField<D> for ContactLoad<D> {
+    fn evaluate(&self, points: &[[f64; D]], normals: &[[f64; D]], time: f64, out: &mut [[f64; D]]) {
+        let data = &self.0;
+        data.programs
+            .boundary
+            .for_batches(points, time, |offset, columns| {
+                let count = points[offset..].len().min(BATCH);
+                let xi: [&[f64]; D] =
+                    std::array::from_fn(|i| columns.get(Quantity::StickTraction(i)));
+                let gap = columns.get(Quantity::Gap);
+                point_states(columns, count, |p, state| {
+                    out[offset + p] = contact_load_at(
                         &data.laws,
                         state,
                         &vector_at(&xi, p),
