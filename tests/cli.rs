@@ -1,7 +1,7 @@
 //! End-to-end tests of the `verify` command line: reports are written, bad input gets a clear
 //! error and a non-zero exit status.
 
-mod process;
+use crate::process;
 
 use process::{closed_pipe, full_disk, output_within_a_minute};
 use std::process::Command;

@@ -9,7 +9,7 @@
 //! - the cheap `verify` command lines of the guide run as written ([`CHEAP_COMMANDS`]);
 //! - `verify --help` exits successfully.
 
-mod guide;
+use crate::guide;
 
 use clap::{CommandFactory, Parser};
 use contact_input::sides::parse_sides;

@@ -10,7 +10,7 @@
 //! The last control is an error floor added to the errors of the correct solver (a solver
 //! converging at the right rate to a limit about 20 % off in ‖ε(u)‖): its verdict must be FAIL.
 
-mod common;
+use crate::common;
 
 use common::{case, pinned_mismatches, restated_check};
 use contact_damage::scheme::Problem;

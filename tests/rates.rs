@@ -25,7 +25,7 @@
 //! h-studies of implicit2d are pinned only too: they drift at every affordable level (see its
 //! case file).
 
-mod common;
+use crate::common;
 
 use common::{assert_pinned, case, restated_check, theorem_h_exponent, FIT, TOLERANCE};
 use verify::case::{LevelStudy, TimeStudy};

@@ -420,7 +420,6 @@ fn a_bad_manifest_index_or_shard_gets_a_clear_error() {
 fn the_stored_runs_give_the_errors_of_the_in_memory_studies() {
     use verify::case::{parse_case_file, Case, LevelStudy, TimeStudy};
     use verify::study::{level_study, time_study, StudyKind};
-    verify::cli::set_threads(Some(1)).unwrap();
     let dir = scratch("in-memory");
     run_ok(verify().args(STUDY).arg("--out").arg(&dir));
     let summary: serde_json::Value =
@@ -437,21 +436,28 @@ fn the_stored_runs_give_the_errors_of_the_in_memory_studies() {
         steps: steps.to_vec(),
     };
     let k = &case.file.studies["order1"].k.clone().unwrap();
-    let in_memory = [
-        level_study(&case, 1, StudyKind::H, &level(&[4, 8], &[2, 8])).unwrap(),
-        time_study(
-            &case,
-            1,
-            &TimeStudy {
-                cells: k.cells,
-                refinements: None,
-                steps: k.steps[..2].to_vec(),
-                reference_steps: k.reference_steps,
-            },
-        )
-        .unwrap(),
-        level_study(&case, 1, StudyKind::Diagonal, &level(&[4, 8], &[2, 4])).unwrap(),
-    ];
+    // on one thread of a pool of its own (the global pool serves the other tests)
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .unwrap();
+    let in_memory = pool.install(|| {
+        [
+            level_study(&case, 1, StudyKind::H, &level(&[4, 8], &[2, 8])).unwrap(),
+            time_study(
+                &case,
+                1,
+                &TimeStudy {
+                    cells: k.cells,
+                    refinements: None,
+                    steps: k.steps[..2].to_vec(),
+                    reference_steps: k.reference_steps,
+                },
+            )
+            .unwrap(),
+            level_study(&case, 1, StudyKind::Diagonal, &level(&[4, 8], &[2, 4])).unwrap(),
+        ]
+    });
     let studies = summary["studies"].as_array().unwrap();
     assert_eq!(studies.len(), 3);
     for (study, json) in in_memory.iter().zip(studies) {

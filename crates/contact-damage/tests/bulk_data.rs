@@ -2,7 +2,7 @@
 //! asks for several step times per evaluation gets them, and the run is bitwise the run that
 //! evaluates each step's data at that step, uninterrupted or resumed at any step.
 
-mod common;
+use crate::common;
 
 use contact_damage::fem::space::LagrangeSpace;
 use contact_damage::model::fields::{BatchScalarField, BatchVectorField};

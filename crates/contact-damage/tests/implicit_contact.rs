@@ -7,7 +7,7 @@
 //! bounds are the observed values with a margin of 5 to 70 (stated at each): what they measure is
 //! what is left of the transient at the final time, which the runs decide, not rounding.
 
-mod common;
+use crate::common;
 
 use contact_damage::model::laws::{DamageSourceFn, NormalComplianceCoulomb, Tensor};
 use contact_damage::scheme::{ContactTreatment, Simulation};

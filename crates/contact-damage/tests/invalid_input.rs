@@ -1,6 +1,6 @@
 //! Invalid input gets an error that names the problem: one test per class.
 
-mod common;
+use crate::common;
 
 use contact_damage::fem::space::LagrangeSpace;
 use contact_damage::model::contact::ContactNodes;

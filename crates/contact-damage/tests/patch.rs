@@ -2,7 +2,7 @@
 //! viscoelastic operator of (5.1) (linear elasticity in the strain rate) with clamped (Γ1) and
 //! traction (Γ2) data, in 2D and 3D, on distorted meshes.
 
-mod common;
+use crate::common;
 
 use contact_damage::fem::mesh::{BoundaryPart, Mesh};
 use contact_damage::model::laws::{LinearViscosity, Tensor, Viscosity};

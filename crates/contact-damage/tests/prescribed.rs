@@ -10,7 +10,7 @@
 //!   normal compliance at t_n), a negative gap presses the body;
 //! - errors: a part on Γ3, a non-finite gap or u_D, each naming what is wrong.
 
-mod common;
+use crate::common;
 
 use common::{internal_force, regime_contact_data, velocity_kkt, Random, VelocityProblem, REGIMES};
 

@@ -10,7 +10,7 @@
 //! Observed over the proptest cases: velocity steps at most 1.6e-12, damage steps 3.9e-12. The
 //! last two tests check that both recomputed checks fail for perturbed solutions.
 
-mod common;
+use crate::common;
 
 use common::{
     clamped_unknowns, regime_contact_data, velocity_kkt, Random, Regime, VelocityKkt,

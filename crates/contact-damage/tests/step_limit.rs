@@ -2,7 +2,7 @@
 //! known in closed form, and it separates the steps at which the explicit scheme settles from
 //! those at which it does not.
 
-mod common;
+use crate::common;
 
 use contact_damage::fem::mesh::Mesh;
 use contact_damage::model::laws::{

@@ -10,7 +10,7 @@
 //! - the reaction of each plane is the force the other half would exert: the plane's resultant
 //!   along its normal balances the half model, its other components vanish.
 
-mod common;
+use crate::common;
 
 use contact_damage::fem::mesh::{BoundaryPart, BoundaryPart::*, Mesh};
 use contact_damage::scheme::{ContactTreatment, PrescribedDisplacement, Simulation};

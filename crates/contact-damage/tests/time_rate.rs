@@ -2,7 +2,7 @@
 //! in x), so the only error left is the time error of the scheme (5.1)–(5.5), which must
 //! converge with rate 1 in k.
 
-mod common;
+use crate::common;
 
 use contact_damage::fem::mesh::{BoundaryPart, Mesh};
 use contact_damage::model::laws::Tensor;

@@ -10,7 +10,7 @@
 //! 4 to 7 Newton iterations in 600 cases (4: 75%, 5: 17%, 6: 8%, 7: 2 cases), largest KKT
 //! residual 9.7e-13; the bound asserted is [`MAX_ITERATIONS`] = 12.
 
-mod common;
+use crate::common;
 
 use common::{internal_force, regime_contact_data, Random, Regime, REGIMES};
 

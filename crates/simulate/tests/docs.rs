@@ -15,8 +15,7 @@
 //! exit status 2 before anything else happens, a good one gets as far as reading the problem
 //! file and fails there (status 1), so nothing is computed.
 
-#[path = "../../../tests/guide/mod.rs"]
-mod guide;
+use crate::guide;
 
 use contact_input::sides::parse_sides;
 use contact_input::FileKind;

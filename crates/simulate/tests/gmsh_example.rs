@@ -3,7 +3,7 @@
 //! the body pointing into it; the first two load periods of the example converge, the contact
 //! zone closes under the load and opens again without it, and damage starts on the hole.
 
-mod common;
+use crate::common;
 
 use common::{checked_run, expected_contact_nodes, facets_of, history_value, scratch};
 use contact_damage::fem::mesh::{BoundaryPart, Mesh};

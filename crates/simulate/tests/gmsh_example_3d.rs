@@ -4,7 +4,7 @@
 //! the pictures (y = 0.5 on Γ3) carries the nodes the generator put there; the first load
 //! period up to its peak converges and presses the whole of Γ3 onto the foundation.
 
-mod common;
+use crate::common;
 
 use common::{checked_run, expected_contact_nodes, facets_of, history_value, scratch};
 use contact_damage::fem::mesh::{BoundaryPart, Mesh};

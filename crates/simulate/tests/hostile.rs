@@ -3,9 +3,8 @@
 //! nothing else, `--threads` out of range and a 3D problem without a contact face are refused
 //! before any work, with a message naming the option or key.
 
-mod common;
-#[path = "../../../tests/process/mod.rs"]
-mod process;
+use crate::common;
+use crate::process;
 
 use common::scratch;
 use process::{closed_pipe, full_disk, output_within_a_minute};

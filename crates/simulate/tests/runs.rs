@@ -4,7 +4,7 @@
 //! to the binary) and resumed run gives bitwise the same result as an uninterrupted one; a
 //! changed problem is not resumed; bad problem files name the key.
 
-mod common;
+use crate::common;
 
 use base64::Engine;
 use common::scratch;

@@ -1,7 +1,7 @@
 //! The validation examples of `verification/validation/` rerun reduced: the full tables come
 //! from `cargo run --release -p simulate --example validation` (docs/results/validation.md).
 
-mod common;
+use crate::common;
 
 use common::scratch;
 use simulate::pictures::read_contact_history;
