@@ -333,12 +333,25 @@ pub fn contact_traction_at<const D: usize>(
     gap: f64,
     normal: &[f64; D],
 ) -> [f64; D] {
+    let (nu, pressure, friction) = contact_parts(laws, state, stick_traction, gap, normal);
+    let f3 = stress_at(laws, state) * nu + pressure + friction;
+    std::array::from_fn(|i| f3[i])
+}
+
+/// ν, p_ν(r) ν and p_τ(r) ξ̂ at a point of Γ3 with the penetration r = u_ν − g.
+#[inline]
+fn contact_parts<const D: usize>(
+    laws: &Laws<D>,
+    state: &PointState<D>,
+    stick_traction: &SVector<f64, D>,
+    gap: f64,
+    normal: &[f64; D],
+) -> (SVector<f64, D>, SVector<f64, D>, SVector<f64, D>) {
     let nu = SVector::<f64, D>::from_column_slice(normal);
     let r = state.displacement.dot(&nu) - gap;
-    let f3 = stress_at(laws, state) * nu
-        + nu * laws.contact.normal_pressure(r)
-        + friction_direction(state, stick_traction, &nu) * laws.contact.friction_bound(r);
-    std::array::from_fn(|i| f3[i])
+    let pressure = nu * laws.contact.normal_pressure(r);
+    let friction = friction_direction(state, stick_traction, &nu) * laws.contact.friction_bound(r);
+    (nu, pressure, friction)
 }
 
 /// f3 − σν = p_ν(r) ν + p_τ(r) ξ̂ on Γ3: the contact part of f3, the Γ3 load of the data in
@@ -351,10 +364,8 @@ pub fn contact_load_at<const D: usize>(
     gap: f64,
     normal: &[f64; D],
 ) -> [f64; D] {
-    let nu = SVector::<f64, D>::from_column_slice(normal);
-    let r = state.displacement.dot(&nu) - gap;
-    let load = nu * laws.contact.normal_pressure(r)
-        + friction_direction(state, stick_traction, &nu) * laws.contact.friction_bound(r);
+    let (_, pressure, friction) = contact_parts(laws, state, stick_traction, gap, normal);
+    let load = pressure + friction;
     std::array::from_fn(|i| load[i])
 }
 

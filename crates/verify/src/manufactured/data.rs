@@ -301,25 +301,39 @@ impl<const D: usize> BatchBoundaryVectorField<D> for Traction<D> {
 
 impl<const D: usize> BatchBoundaryVectorField<D> for ContactTraction<D> {
     fn evaluate(&self, points: &[[f64; D]], normals: &[[f64; D]], time: f64, out: &mut [[f64; D]]) {
-        let data = &self.0;
-        data.programs
-            .boundary
-            .for_batches(points, time, |offset, columns| {
-                let count = points[offset..].len().min(BATCH);
-                let xi: [&[f64]; D] =
-                    std::array::from_fn(|i| columns.get(Quantity::StickTraction(i)));
-                let gap = columns.get(Quantity::Gap);
-                point_states(columns, count, |p, state| {
-                    out[offset + p] = contact_traction_at(
-                        &data.laws,
-                        state,
-                        &vector_at(&xi, p),
-                        gap[p],
-                        &normals[offset + p],
-                    );
-                });
-            });
+        contact_batch(&self.0, points, normals, time, out, contact_traction_at);
     }
+}
+
+/// A datum of Γ3 at a point from the laws, the exact state, ξ, g and the outward normal.
+type ContactDatum<const D: usize> =
+    fn(&Laws<D>, &PointState<D>, &SVector<f64, D>, f64, &[f64; D]) -> [f64; D];
+
+/// The quantity `at` (f3, or f3 − σν) at the points of Γ3 with their outward normals.
+fn contact_batch<const D: usize>(
+    data: &ManufacturedData<D>,
+    points: &[[f64; D]],
+    normals: &[[f64; D]],
+    time: f64,
+    out: &mut [[f64; D]],
+    at: ContactDatum<D>,
+) {
+    data.programs
+        .boundary
+        .for_batches(points, time, |offset, columns| {
+            let count = points[offset..].len().min(BATCH);
+            let xi: [&[f64]; D] = std::array::from_fn(|i| columns.get(Quantity::StickTraction(i)));
+            let gap = columns.get(Quantity::Gap);
+            point_states(columns, count, |p, state| {
+                out[offset + p] = at(
+                    &data.laws,
+                    state,
+                    &vector_at(&xi, p),
+                    gap[p],
+                    &normals[offset + p],
+                );
+            });
+        });
 }
 
 /// The exact stress σ = 𝒜ε(u̇) + G(ε(u), β) as the data's stress S (loads in stress form).
@@ -343,24 +357,7 @@ impl<const D: usize> BatchTensorField<D> for BodyStress<D> {
 
 impl<const D: usize> BatchBoundaryVectorField<D> for ContactLoad<D> {
     fn evaluate(&self, points: &[[f64; D]], normals: &[[f64; D]], time: f64, out: &mut [[f64; D]]) {
-        let data = &self.0;
-        data.programs
-            .boundary
-            .for_batches(points, time, |offset, columns| {
-                let count = points[offset..].len().min(BATCH);
-                let xi: [&[f64]; D] =
-                    std::array::from_fn(|i| columns.get(Quantity::StickTraction(i)));
-                let gap = columns.get(Quantity::Gap);
-                point_states(columns, count, |p, state| {
-                    out[offset + p] = contact_load_at(
-                        &data.laws,
-                        state,
-                        &vector_at(&xi, p),
-                        gap[p],
-                        &normals[offset + p],
-                    );
-                });
-            });
+        contact_batch(&self.0, points, normals, time, out, contact_load_at);
     }
 }
 

@@ -157,6 +157,19 @@ pub fn write_reports(
     Ok(vec![csv, json, svg])
 }
 
+/// The error components that have rates, in the order of the studies.
+fn components(points: &[SweepPoint]) -> Vec<&str> {
+    points.first().map_or_else(Vec::new, |first| {
+        first
+            .study
+            .rates
+            .iter()
+            .filter(|r| !r.is_missing())
+            .map(|r| r.component.as_str())
+            .collect()
+    })
+}
+
 /// The short name of an error component in the printed table (as in the table of a study).
 fn short_name(component: &str) -> &str {
     match component {
@@ -176,13 +189,7 @@ pub fn table(sweep: &Sweep, points: &[SweepPoint]) -> String {
     let Some(first) = points.first() else {
         return String::new();
     };
-    let components: Vec<&str> = first
-        .study
-        .rates
-        .iter()
-        .filter(|r| !r.is_missing())
-        .map(|r| r.component.as_str())
-        .collect();
+    let components = components(points);
     let degree = first.study.degree;
     let mut lines = vec![format!(
         "regularity sweep of {}, l = {degree}: least-squares h-rates ± standard error (* drifting)",
@@ -250,16 +257,10 @@ fn rate_svg(
         message,
     };
     let drawing_error = |error: &dyn std::fmt::Display| plot_error(error.to_string());
-    let Some(first) = points.first() else {
+    if points.is_empty() {
         return Err(plot_error("no value to plot".to_string()));
-    };
-    let components: Vec<&str> = first
-        .study
-        .rates
-        .iter()
-        .filter(|r| !r.is_missing())
-        .map(|r| r.component.as_str())
-        .collect();
+    }
+    let components = components(points);
     let curves: Vec<(&str, Vec<RatePoint>)> = components
         .iter()
         .map(|&component| {
