@@ -713,12 +713,12 @@ fn run_planned(
 /// assumptions the rates are reported, not judged.
 fn run_regularity(args: &StudyArgs, sweep: &str, fresh: bool) -> Result<Outcome, InputError> {
     use crate::regularity::report::{report_names, table, write_reports, SweepPoint};
-    use crate::regularity::{case_with, check_sweep, parse_sweep, value_folder, Profile};
+    use crate::regularity::{case_with, check_sweep, parse_sweep, value_folder};
     check_study_options(args)?;
-    let sweep = parse_sweep(sweep)?;
+    let mut sweep = parse_sweep(sweep)?;
     let (text, origin) = load_case(args)?;
     let file = parse_case_file(&text, &origin)?;
-    check_sweep(&sweep, &file, &origin)?;
+    check_sweep(&mut sweep, &file, &origin)?;
     let out = args.out.clone().unwrap_or_else(|| {
         PathBuf::from(DEFAULT_OUT)
             .join(&file.name)
@@ -755,7 +755,7 @@ fn run_regularity(args: &StudyArgs, sweep: &str, fresh: bool) -> Result<Outcome,
             outcome = Outcome::Failure;
             continue;
         };
-        let judged = Profile { exponent: *value }.inside_assumptions(args.order);
+        let judged = sweep.profile(*value).inside_assumptions(args.order);
         if value_outcome == Outcome::Failure && judged {
             outcome = Outcome::Failure;
         }

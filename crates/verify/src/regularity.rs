@@ -78,6 +78,19 @@ pub struct Sweep {
     pub name: String,
     /// Its values, increasing.
     pub values: Vec<f64>,
+    /// The smallest value of the case's other exponents (∞ without any; set by
+    /// [`check_sweep`]): the field is only as smooth as its roughest profile.
+    pub others: f64,
+}
+
+impl Sweep {
+    /// The profile that limits the smoothness at the swept value `value`: the smallest of it
+    /// and the other exponents.
+    pub fn profile(&self, value: f64) -> Profile {
+        Profile {
+            exponent: value.min(self.others),
+        }
+    }
 }
 
 /// Parses `NAME=FROM:TO:STEP` (FROM, FROM + STEP, … up to TO, both included) or
@@ -143,6 +156,7 @@ pub fn parse_sweep(text: &str) -> Result<Sweep, InputError> {
     Ok(Sweep {
         name: name.to_string(),
         values,
+        others: f64::INFINITY,
     })
 }
 
@@ -195,8 +209,8 @@ fn check_value(origin: &str, name: &str, value: f64) -> Result<(), InputError> {
 }
 
 /// Checks a sweep against the case file before anything runs: the constant is an exponent of
-/// `[regularity]`, and every value keeps the data square-integrable.
-pub fn check_sweep(sweep: &Sweep, file: &CaseFile, origin: &str) -> Result<(), InputError> {
+/// `[regularity]`, and every value keeps the data square-integrable; sets [`Sweep::others`].
+pub fn check_sweep(sweep: &mut Sweep, file: &CaseFile, origin: &str) -> Result<(), InputError> {
     let Some(regularity) = &file.regularity else {
         return Err(InputError::InvalidInput(format!(
             "--regularity {}: {origin} has no [regularity] table naming the exponents a sweep may vary",
@@ -215,6 +229,12 @@ pub fn check_sweep(sweep: &Sweep, file: &CaseFile, origin: &str) -> Result<(), I
             InputError::InvalidInput(format!("--regularity {}: {error}", sweep.name))
         })?;
     }
+    sweep.others = regularity
+        .exponents
+        .iter()
+        .filter(|name| **name != sweep.name)
+        .filter_map(|name| file.constants.get(name))
+        .fold(f64::INFINITY, |smallest, &value| smallest.min(value));
     Ok(())
 }
 
@@ -265,7 +285,8 @@ mod tests {
             parse_sweep(" q = 1.75, 2.5 ,4").unwrap(),
             Sweep {
                 name: "q".to_string(),
-                values: vec![1.75, 2.5, 4.0]
+                values: vec![1.75, 2.5, 4.0],
+                others: f64::INFINITY,
             }
         );
     }
@@ -302,6 +323,14 @@ mod tests {
         assert_eq!(profile(2.75).theorem_rate(2), Some(1.5));
         assert_eq!(profile(2.0).interpolation_rate(2), 1.5);
         assert_eq!(profile(4.0).interpolation_rate(2), 2.0);
+        // the roughest profile limits: q = 4 swept beside p = 2.5 is outside (5.7) at l = 2
+        let sweep = Sweep {
+            name: "q".to_string(),
+            values: vec![4.0],
+            others: 2.5,
+        };
+        assert!(!sweep.profile(4.0).inside_assumptions(2));
+        assert_eq!(sweep.profile(2.0).exponent, 2.0);
     }
 
     #[test]

@@ -9,7 +9,7 @@ use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use serde::Serialize;
 
-use super::{Profile, Sweep};
+use super::Sweep;
 use crate::output::{format_or_dash, write_atomic, write_csv_atomic, write_json_atomic};
 use crate::study::StudyResult;
 use crate::InputError;
@@ -29,13 +29,13 @@ struct Row {
     constant: String,
     value: f64,
     degree: usize,
-    /// p + 1/2.
+    /// s + 1/2 with s the smallest exponent of the case at this value (the swept one or another).
     sobolev_index: f64,
-    /// (5.7) holds: p > l + 1/2.
+    /// (5.7) holds: s > l + 1/2.
     inside_assumptions: bool,
     /// min(l, (l+1)/2) where the assumptions hold, else `—`.
     theorem_rate: String,
-    /// min(l, p − 1/2).
+    /// min(l, s − 1/2).
     interpolation_rate: f64,
     component: String,
     least_squares: String,
@@ -54,9 +54,7 @@ fn number(value: f64) -> String {
 fn rows(sweep: &Sweep, points: &[SweepPoint]) -> Vec<Row> {
     let mut rows = Vec::new();
     for point in points {
-        let profile = Profile {
-            exponent: point.value,
-        };
+        let profile = sweep.profile(point.value);
         let degree = point.study.degree;
         let levels: Vec<String> = point
             .study
@@ -138,9 +136,7 @@ pub fn write_reports(
         points: points
             .iter()
             .map(|point| {
-                let profile = Profile {
-                    exponent: point.value,
-                };
+                let profile = sweep.profile(point.value);
                 PointSummary {
                     value: point.value,
                     sobolev_index: profile.sobolev_index(),
@@ -204,9 +200,7 @@ pub fn table(sweep: &Sweep, points: &[SweepPoint]) -> String {
     }
     lines.push(header);
     for point in points {
-        let profile = Profile {
-            exponent: point.value,
-        };
+        let profile = sweep.profile(point.value);
         let mut line = format!(
             "{:>6} {:>6} {:>7} {:>7.3}",
             contact_input::number::short(point.value),
@@ -301,7 +295,7 @@ fn rate_svg(
             y_low = y_low.min(rate - error - 0.25);
         }
     }
-    let interpolation = |p: f64| Profile { exponent: p }.interpolation_rate(degree);
+    let interpolation = |p: f64| sweep.profile(p).interpolation_rate(degree);
     let mut svg = String::new();
     {
         let root = SVGBackend::with_string(&mut svg, (800, 600)).into_drawing_area();
