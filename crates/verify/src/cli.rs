@@ -745,11 +745,7 @@ fn run_regularity(args: &StudyArgs, sweep: &str, fresh: bool) -> Result<Outcome,
     let mut points = Vec::with_capacity(planned.len());
     let mut outcome = Outcome::Success;
     for (value, manifest, value_out) in &planned {
-        outln!(
-            "
-{} = {value}",
-            sweep.name
-        )?;
+        outln!("\n{} = {value}", sweep.name)?;
         let (value_outcome, studies) = run_planned(manifest, value_out, fresh)?;
         let Some(study) = studies.into_iter().next() else {
             outcome = Outcome::Failure;
@@ -764,11 +760,7 @@ fn run_regularity(args: &StudyArgs, sweep: &str, fresh: bool) -> Result<Outcome,
             study,
         });
     }
-    outln!(
-        "
-{}",
-        table(&sweep, &points)
-    )?;
+    outln!("\n{}", table(&sweep, &points))?;
     if points.is_empty() {
         outln!("no study has a result: no sweep reports written")?;
         return Ok(Outcome::Failure);

@@ -107,6 +107,15 @@ fn error_rows(case: &str, dim: usize, studies: &[StudyResult]) -> Vec<ErrorRow> 
         .collect()
 }
 
+/// The `drifting` cell of a CSV row: `yes`, `no`, or `—` when undetermined.
+pub(crate) fn drifting_cell(drifting: Option<bool>) -> String {
+    match drifting {
+        Some(true) => "yes".to_string(),
+        Some(false) => "no".to_string(),
+        None => crate::output::MISSING.to_string(),
+    }
+}
+
 /// The rows of `rates.csv`: one per study and error component.
 fn rate_rows(case: &str, studies: &[StudyResult]) -> Vec<RateRow> {
     studies
@@ -128,11 +137,7 @@ fn rate_rows(case: &str, studies: &[StudyResult]) -> Vec<RateRow> {
                 standard_error: rates.standard_error,
                 ci95_low: rates.interval_95.first().copied().unwrap_or(f64::NAN),
                 ci95_high: rates.interval_95.get(1).copied().unwrap_or(f64::NAN),
-                drifting: match rates.drifting {
-                    Some(true) => "yes".to_string(),
-                    Some(false) => "no".to_string(),
-                    None => crate::output::MISSING.to_string(),
-                },
+                drifting: drifting_cell(rates.drifting),
                 expected: rates.expected.unwrap_or(f64::NAN),
                 verdict: match rates.pass {
                     Some(true) => "pass".to_string(),

@@ -75,11 +75,7 @@ fn rows(sweep: &Sweep, points: &[SweepPoint]) -> Vec<Row> {
                 least_squares: number(rates.least_squares),
                 standard_error: number(rates.standard_error),
                 finest_pairwise: number(rates.pairwise.last().copied().unwrap_or(f64::NAN)),
-                drifting: match rates.drifting {
-                    Some(true) => "yes".to_string(),
-                    Some(false) => "no".to_string(),
-                    None => crate::output::MISSING.to_string(),
-                },
+                drifting: crate::report::drifting_cell(rates.drifting),
                 levels: levels.join(" "),
             });
         }
