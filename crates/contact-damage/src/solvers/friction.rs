@@ -555,8 +555,12 @@ mod tests {
             }
         }
         let v = Col::from_fn(n, |_| generator.range(-1.0, 1.0));
-        let mut product = Col::zeros(n);
-        problem.apply_newton(&system, &v, &mut product);
+        let mut product = vec![0.0; n];
+        problem.apply_newton(
+            &system,
+            &v.iter().copied().collect::<Vec<_>>(),
+            &mut product,
+        );
         let expected = &assembled * &v;
         let row_norm = (0..n)
             .map(|i| (0..n).map(|j| assembled[(i, j)].abs()).sum::<f64>())
@@ -574,7 +578,7 @@ mod tests {
                 assert!((reconstructed[(i, j)] - assembled[(i, j)]).abs() <= 1e-13 * row_norm);
             }
         }
-        let mut solution = expected.clone();
+        let mut solution: Vec<f64> = expected.iter().copied().collect();
         cholesky_solve(cache.factor_ref().unwrap(), &mut solution);
         for i in 0..n {
             assert!((solution[i] - v[i]).abs() <= 1e-11);
@@ -598,9 +602,17 @@ mod tests {
         let norm_of_matrix = (0..n)
             .map(|i| (0..n).map(|j| matrix[(i, j)].abs()).sum::<f64>())
             .fold(0.0, f64::max);
-        let apply = |v: &Col<f64>, out: &mut Col<f64>| out.copy_from(&matrix * v);
-        let solution = preconditioned_cg(apply, factor.L(), norm_of_matrix, &rhs)
-            .expect("a nearby factor preconditions to convergence");
+        let apply = |v: &[f64], out: &mut [f64]| {
+            ColMut::from_slice_mut(out).copy_from(&matrix * ColRef::from_slice(v))
+        };
+        let solution = preconditioned_cg(
+            apply,
+            factor.L(),
+            norm_of_matrix,
+            &rhs.iter().copied().collect::<Vec<_>>(),
+        )
+        .expect("a nearby factor preconditions to convergence");
+        let solution = Col::from_fn(n, |i| solution[i]);
         let exact = matrix.llt(Side::Lower).unwrap().solve(&rhs);
         let residual = &rhs - &matrix * &solution;
         let norm = |v: &Col<f64>| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
@@ -622,8 +634,16 @@ mod tests {
         });
         let identity = Mat::<f64>::identity(n, n);
         let rhs = Col::from_fn(n, |i| 1.0 + i as f64);
-        let apply = |v: &Col<f64>, out: &mut Col<f64>| out.copy_from(&matrix * v);
-        assert!(preconditioned_cg(apply, identity.as_ref(), 1e8, &rhs).is_none());
+        let apply = |v: &[f64], out: &mut [f64]| {
+            ColMut::from_slice_mut(out).copy_from(&matrix * ColRef::from_slice(v))
+        };
+        assert!(preconditioned_cg(
+            apply,
+            identity.as_ref(),
+            1e8,
+            &rhs.iter().copied().collect::<Vec<_>>()
+        )
+        .is_none());
     }
 
     #[test]

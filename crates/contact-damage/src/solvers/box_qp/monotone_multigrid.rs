@@ -4,8 +4,9 @@
 //!
 //! [`BoxQpMethod::MonotoneMultigrid`]: super::BoxQpMethod::MonotoneMultigrid
 
-use crate::algebra::linalg::{dot, max_abs};
+use crate::algebra::linalg::max_abs;
 use crate::algebra::multigrid::{Csr, Hierarchy};
+use crate::algebra::pcg::{pcg, BetaRule, PcgSettings, PcgStop, PcgSystem};
 use crate::error::{Error, Result};
 use crate::solvers::box_qp::kkt::{clamp, scaled_kkt_residual, Problem};
 use crate::solvers::box_qp::projected_gauss_seidel::{
@@ -187,7 +188,6 @@ fn not_positive_definite(context: &str) -> Error {
 /// fixed indices) from `d = 0`, preconditioned with one V-cycle of the truncated hierarchy;
 /// stops when `‖r − A_FF d‖_∞ ≤ target` or after [`CORRECTION_ITERATIONS`] iterations.
 #[allow(clippy::too_many_arguments)]
-#[allow(clippy::needless_range_loop)] // componentwise kernels over several vectors
 fn multigrid_cg(
     rows: &Csr,
     hierarchy: &mut Hierarchy,
@@ -198,46 +198,49 @@ fn multigrid_cg(
     cg: &mut CgWork,
     stats: &mut BoxQpStats,
 ) -> Result<()> {
-    let n = rhs.len();
     solution.fill(0.0);
-    cg.residual.copy_from_slice(rhs);
-    if max_abs(&cg.residual) <= target {
-        return Ok(());
-    }
-    let mut precondition = |residual: &[f64], z: &mut [f64], stats: &mut BoxQpStats| {
-        stats.inner_iterations += 1;
-        hierarchy.cycle(residual, z);
+    cg.vectors.residual.copy_from_slice(rhs);
+    let settings = PcgSettings {
+        target,
+        max_iterations: CORRECTION_ITERATIONS,
+        beta: BetaRule::FletcherReeves,
     };
-    precondition(&cg.residual, &mut cg.preconditioned, stats);
-    cg.search.copy_from_slice(&cg.preconditioned);
-    let mut rho = dot(&cg.residual, &cg.preconditioned);
-    for _ in 0..CORRECTION_ITERATIONS {
-        // A_FF s: the products of the free rows only.
-        rows.multiply_rows(&cg.search, &mut cg.image, |i| !fixed[i]);
-        let curvature = dot(&cg.search, &cg.image);
-        if curvature < 0.0 {
-            return Err(not_positive_definite(
-                "conjugate gradients of the multigrid correction",
-            ));
-        }
-        if !(curvature > 0.0 && rho > 0.0) {
-            break; // breakdown at the rounding level
-        }
-        let alpha = rho / curvature;
-        for i in 0..n {
-            solution[i] += alpha * cg.search[i];
-            cg.residual[i] -= alpha * cg.image[i];
-        }
-        if max_abs(&cg.residual) <= target {
-            break;
-        }
-        precondition(&cg.residual, &mut cg.preconditioned, stats);
-        let next_rho = dot(&cg.residual, &cg.preconditioned);
-        let beta = next_rho / rho;
-        rho = next_rho;
-        for i in 0..n {
-            cg.search[i] = cg.preconditioned[i] + beta * cg.search[i];
-        }
+    let mut system = TruncatedSystem {
+        rows,
+        hierarchy,
+        fixed,
+        stats,
+    };
+    let outcome = pcg(&mut system, solution, &mut cg.vectors, &settings)?;
+    match outcome.stop {
+        PcgStop::Breakdown { curvature } if curvature < 0.0 => Err(not_positive_definite(
+            "conjugate gradients of the multigrid correction",
+        )),
+        // a breakdown at the rounding level or the cap leaves the last iterate
+        _ => Ok(()),
     }
-    Ok(())
+}
+
+/// The truncated operator `A_FF` (products of the free rows only) and its V-cycle.
+struct TruncatedSystem<'a> {
+    rows: &'a Csr,
+    hierarchy: &'a mut Hierarchy,
+    fixed: &'a [bool],
+    stats: &'a mut BoxQpStats,
+}
+
+impl PcgSystem for TruncatedSystem<'_> {
+    type Error = Error;
+
+    fn apply(&mut self, x: &[f64], image: &mut [f64]) -> Result<()> {
+        let fixed = self.fixed;
+        self.rows.multiply_rows(x, image, |i| !fixed[i]);
+        Ok(())
+    }
+
+    fn precondition(&mut self, residual: &[f64], z: &mut [f64]) -> Result<()> {
+        self.stats.inner_iterations += 1;
+        self.hierarchy.cycle(residual, z);
+        Ok(())
+    }
 }

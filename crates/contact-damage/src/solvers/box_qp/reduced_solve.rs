@@ -5,7 +5,8 @@
 use faer::sparse::SparseColMat;
 use faer::MatMut;
 
-use crate::algebra::linalg::{dot, max_abs, max_abs_free, multiply_into};
+use crate::algebra::linalg::{max_abs_free, multiply_into};
+use crate::algebra::pcg::{pcg, BetaRule, PcgSettings, PcgSystem};
 use crate::error::{Error, Result};
 use crate::solvers::box_qp::kkt::{gradient, Problem};
 use crate::solvers::box_qp::settings::BoxQpStats;
@@ -103,7 +104,6 @@ impl BoxQpSolver {
     /// `[1, 1/(1 − γ²)]` with `γ` the strengthened Cauchy–Schwarz constant between the
     /// discrete functions carried by `F` and by `I`. Stops when `‖r − A_FF y‖_∞ ≤ target` (the
     /// recursively updated residual), after a breakdown, or after the iteration cap.
-    #[allow(clippy::needless_range_loop)] // componentwise kernels over several vectors
     pub(super) fn reduced_cg(
         &mut self,
         fixed: &[bool],
@@ -120,61 +120,22 @@ impl BoxQpSolver {
         if free == 0 {
             return Ok(());
         }
-        let cap = 2 * free.min(n - free + 1) + 20;
-        cg.residual.copy_from_slice(rhs);
-        if max_abs(&cg.residual) <= target {
-            return Ok(());
-        }
-        self.precondition(
+        cg.vectors.residual.copy_from_slice(rhs);
+        let settings = PcgSettings {
+            target,
+            max_iterations: 2 * free.min(n - free + 1) + 20,
+            // flexible β: robust if the preconditioner is not exactly symmetric
+            beta: BetaRule::PolakRibiere,
+        };
+        let mut system = ReducedSystem {
+            solver: self,
             fixed,
-            &cg.residual,
-            &mut cg.preconditioned,
-            &mut cg.scratch,
+            scratch: &mut cg.scratch,
             stats,
-        )?;
-        cg.search.copy_from_slice(&cg.preconditioned);
-        let mut rho = dot(&cg.residual, &cg.preconditioned);
-        for _ in 0..cap {
-            multiply_into(&self.matrix, &cg.search, &mut cg.image);
-            for i in 0..n {
-                if fixed[i] {
-                    cg.image[i] = 0.0;
-                }
-            }
-            let curvature = dot(&cg.search, &cg.image);
-            if !(curvature > 0.0 && rho > 0.0) {
-                break; // breakdown at the rounding level
-            }
-            let alpha = rho / curvature;
-            for i in 0..n {
-                solution[i] += alpha * cg.search[i];
-                cg.residual[i] -= alpha * cg.image[i];
-            }
-            if max_abs(&cg.residual) <= target {
-                break;
-            }
-            cg.previous.copy_from_slice(&cg.preconditioned);
-            self.precondition(
-                fixed,
-                &cg.residual,
-                &mut cg.preconditioned,
-                &mut cg.scratch,
-                stats,
-            )?;
-            let next_rho = dot(&cg.residual, &cg.preconditioned);
-            // Polak–Ribière (flexible) β: robust if the preconditioner is not exactly symmetric.
-            let beta = (next_rho
-                - cg.residual
-                    .iter()
-                    .zip(&cg.previous)
-                    .map(|(r, z)| r * z)
-                    .sum::<f64>())
-                / rho;
-            rho = next_rho;
-            for i in 0..n {
-                cg.search[i] = cg.preconditioned[i] + beta * cg.search[i];
-            }
-        }
+        };
+        // a breakdown (at the rounding level) or the cap leaves the last iterate, as a
+        // converged solve does: the caller measures the gradient it reaches
+        pcg(&mut system, solution, &mut cg.vectors, &settings)?;
         Ok(())
     }
 
@@ -272,5 +233,33 @@ fn gauss_seidel_sweep(
             }
         }
         z[i] += sum / diagonal[i];
+    }
+}
+
+/// The reduced operator `A_FF` (rows and columns of the fixed indices zero) and the two-level
+/// preconditioner of [`BoxQpSolver::reduced_cg`].
+struct ReducedSystem<'a> {
+    solver: &'a mut BoxQpSolver,
+    fixed: &'a [bool],
+    scratch: &'a mut [f64],
+    stats: &'a mut BoxQpStats,
+}
+
+impl PcgSystem for ReducedSystem<'_> {
+    type Error = Error;
+
+    fn apply(&mut self, x: &[f64], image: &mut [f64]) -> Result<()> {
+        multiply_into(&self.solver.matrix, x, image);
+        for (value, fixed) in image.iter_mut().zip(self.fixed) {
+            if *fixed {
+                *value = 0.0;
+            }
+        }
+        Ok(())
+    }
+
+    fn precondition(&mut self, residual: &[f64], z: &mut [f64]) -> Result<()> {
+        self.solver
+            .precondition(self.fixed, residual, z, self.scratch, self.stats)
     }
 }

@@ -1,6 +1,7 @@
 //! The work vectors of one solve, kept by the solver between calls, and the states of the
 //! indices they hold.
 
+use crate::algebra::pcg::PcgVectors;
 use crate::solvers::box_qp::projected_gauss_seidel::STALE;
 
 /// Position of an index relative to its bounds in the active set classification.
@@ -29,14 +30,11 @@ pub(super) struct Workspace {
     pub(super) cg: CgWork,
 }
 
-/// Work vectors of the preconditioned conjugate gradient method.
+/// Work vectors of the preconditioned conjugate gradient method: those of the iteration and
+/// one more for the preconditioner.
 pub(super) struct CgWork {
-    pub(super) residual: Vec<f64>,
-    pub(super) preconditioned: Vec<f64>,
-    pub(super) search: Vec<f64>,
-    pub(super) image: Vec<f64>,
+    pub(super) vectors: PcgVectors,
     pub(super) scratch: Vec<f64>,
-    pub(super) previous: Vec<f64>,
 }
 
 impl Workspace {
@@ -50,15 +48,11 @@ impl Workspace {
             &mut self.projected_gradient,
             &mut self.direction,
             &mut self.product,
-            &mut self.cg.residual,
-            &mut self.cg.preconditioned,
-            &mut self.cg.search,
-            &mut self.cg.image,
             &mut self.cg.scratch,
-            &mut self.cg.previous,
         ] {
             vector.fill(0.0);
         }
+        self.cg.vectors.fill_zero();
         self.fixed.fill(false);
         self.marks.fill(STALE);
         self.state.fill(BoundStatus::Free);
@@ -79,12 +73,8 @@ impl Workspace {
             state: vec![BoundStatus::Free; dimension],
             next_state: vec![BoundStatus::Free; dimension],
             cg: CgWork {
-                residual: vec![0.0; dimension],
-                preconditioned: vec![0.0; dimension],
-                search: vec![0.0; dimension],
-                image: vec![0.0; dimension],
+                vectors: PcgVectors::new(dimension),
                 scratch: vec![0.0; dimension],
-                previous: vec![0.0; dimension],
             },
         }
     }

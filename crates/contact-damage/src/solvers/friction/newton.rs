@@ -9,7 +9,6 @@ use super::newton_system::{
 use super::objective::Problem;
 use crate::algebra::linalg::dot;
 use crate::error::{Error, Result};
-use faer::prelude::*;
 
 impl Problem<'_> {
     /// One-sided directional derivative J'(x; candidate − x).
@@ -111,12 +110,11 @@ impl Problem<'_> {
         if n == 0 {
             return Ok(());
         }
-        let rhs_column = Col::from_fn(n, |i| reduced_rhs[i]);
-        let apply = |v: &Col<f64>, product: &mut Col<f64>| self.apply_newton(&system, v, product);
+        let apply = |v: &[f64], product: &mut [f64]| self.apply_newton(&system, v, product);
         let preconditioned = match cache.factor_ref() {
             Some(factor) if cache.unknowns == system.unknowns => {
                 let norm = self.newton_matrix_norm(&system);
-                preconditioned_cg(apply, factor, norm, &rhs_column)
+                preconditioned_cg(apply, factor, norm, &reduced_rhs)
             }
             _ => None,
         };
@@ -124,14 +122,18 @@ impl Problem<'_> {
             Some(solution) => solution,
             None => {
                 let factor = cache.factorize(self.matrix, &system)?;
-                let mut solution = rhs_column.clone();
+                let mut solution = reduced_rhs.clone();
                 cholesky_solve(factor, &mut solution);
                 // One step of iterative refinement with the same factorization.
-                let mut correction = Col::<f64>::zeros(n);
-                apply(&solution, &mut correction);
-                let mut correction = &rhs_column - &correction;
+                let mut correction = vec![0.0; n];
+                self.apply_newton(&system, &solution, &mut correction);
+                for (correction, b) in correction.iter_mut().zip(&reduced_rhs) {
+                    *correction = b - *correction;
+                }
                 cholesky_solve(factor, &mut correction);
-                solution += &correction;
+                for (value, correction) in solution.iter_mut().zip(&correction) {
+                    *value += correction;
+                }
                 solution
             }
         };
@@ -150,7 +152,7 @@ impl Problem<'_> {
     /// product = A v for the Newton system A = S_NN + D: (S ṽ)_N with ṽ = v on N, 0 elsewhere
     /// (adding the products of exact zeros changes no bit of a finite sum), plus the slip
     /// curvatures.
-    pub(super) fn apply_newton(&self, system: &NewtonSystem, v: &Col<f64>, product: &mut Col<f64>) {
+    pub(super) fn apply_newton(&self, system: &NewtonSystem, v: &[f64], product: &mut [f64]) {
         let m = self.dimension();
         let n = system.unknowns.len();
         let mut extended = vec![0.0; m];

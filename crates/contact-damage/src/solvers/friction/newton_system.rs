@@ -1,7 +1,9 @@
 //! The reduced Newton system A = S_NN + D of the semismooth Newton method for the friction
 //! problem of (5.1): its data, its dense Cholesky factor (kept within one solve), and conjugate
-//! gradients preconditioned with the factor of a nearby system.
+//! gradients (the crate's [`pcg`]) preconditioned with the factor of a nearby system.
 
+use crate::algebra::linalg::max_abs;
+use crate::algebra::pcg::{pcg, BetaRule, PcgSettings, PcgStop, PcgSystem, PcgVectors};
 use crate::error::{Error, Result};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
@@ -108,11 +110,11 @@ impl NewtonCache {
 }
 
 /// v ← (L Lᵀ)⁻¹ v with the lower triangle of `factor`.
-pub(super) fn cholesky_solve(factor: MatRef<'_, f64>, v: &mut Col<f64>) {
+pub(super) fn cholesky_solve(factor: MatRef<'_, f64>, v: &mut [f64]) {
     solve_in_place_with_conj(
         factor,
         Conj::No,
-        v.as_mat_mut(),
+        ColMut::from_slice_mut(v).as_mat_mut(),
         Par::Seq,
         MemStack::new(&mut MemBuffer::new(StackReq::EMPTY)),
     );
@@ -124,49 +126,56 @@ pub(super) fn cholesky_solve(factor: MatRef<'_, f64>, v: &mut Col<f64>) {
 /// residual is then within [`NEWTON_PCG_TOLERANCE`] ‖b‖_∞ + [`NEWTON_PCG_ROUNDING_ULPS`] ε
 /// ‖A‖_∞ ‖y‖_∞. `apply(v, out)` sets out = A v; `matrix_norm` is ‖A‖_∞.
 pub(super) fn preconditioned_cg(
-    apply: impl Fn(&Col<f64>, &mut Col<f64>),
+    apply: impl FnMut(&[f64], &mut [f64]),
     factor: MatRef<'_, f64>,
     matrix_norm: f64,
-    rhs: &Col<f64>,
-) -> Option<Col<f64>> {
-    let norm = |v: &Col<f64>| v.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-    let target = NEWTON_PCG_TOLERANCE * norm(rhs);
-    let mut product = Col::<f64>::zeros(rhs.nrows());
-    let mut solution = rhs.clone();
+    rhs: &[f64],
+) -> Option<Vec<f64>> {
+    let target = NEWTON_PCG_TOLERANCE * max_abs(rhs);
+    let mut system = FactorPreconditioned { apply, factor };
+    let mut solution = rhs.to_vec();
     cholesky_solve(factor, &mut solution);
-    apply(&solution, &mut product);
-    let mut residual = rhs - &product;
-    let mut preconditioned = residual.clone();
-    cholesky_solve(factor, &mut preconditioned);
-    let mut direction = preconditioned.clone();
-    let mut rz = column_dot(&residual, &preconditioned);
-    for _ in 0..NEWTON_PCG_ITERATIONS {
-        if norm(&residual) <= target {
-            // the recursive residual drifts from the true one: confirm
-            apply(&solution, &mut product);
-            let true_residual = rhs - &product;
-            let floor = NEWTON_PCG_ROUNDING_ULPS * f64::EPSILON * matrix_norm * norm(&solution);
-            return (norm(&true_residual) <= target + floor).then_some(solution);
-        }
-        apply(&direction, &mut product);
-        let curvature = column_dot(&direction, &product);
-        if !(curvature > 0.0 && rz.is_finite()) {
-            return None;
-        }
-        let alpha = rz / curvature;
-        solution += alpha * &direction;
-        residual -= alpha * &product;
-        preconditioned.copy_from(&residual);
-        cholesky_solve(factor, &mut preconditioned);
-        let next = column_dot(&residual, &preconditioned);
-        let beta = next / rz;
-        rz = next;
-        direction = &preconditioned + beta * &direction;
+    let mut vectors = PcgVectors::new(rhs.len());
+    (system.apply)(&solution, &mut vectors.image);
+    for ((residual, b), product) in vectors.residual.iter_mut().zip(rhs).zip(&vectors.image) {
+        *residual = b - product;
     }
-    None
+    let settings = PcgSettings {
+        target,
+        max_iterations: NEWTON_PCG_ITERATIONS,
+        beta: BetaRule::FletcherReeves,
+    };
+    let Ok(outcome) = pcg(&mut system, &mut solution, &mut vectors, &settings);
+    if outcome.stop != PcgStop::Converged {
+        return None;
+    }
+    // the recursive residual drifts from the true one: confirm
+    (system.apply)(&solution, &mut vectors.image);
+    let mut true_residual = 0.0_f64;
+    for (b, product) in rhs.iter().zip(&vectors.image) {
+        true_residual = true_residual.max((b - product).abs());
+    }
+    let floor = NEWTON_PCG_ROUNDING_ULPS * f64::EPSILON * matrix_norm * max_abs(&solution);
+    (true_residual <= target + floor).then_some(solution)
 }
 
-/// aᵀb of two columns.
-fn column_dot(a: &Col<f64>, b: &Col<f64>) -> f64 {
-    a.iter().zip(b.iter()).map(|(x, y)| x * y).sum()
+/// A Newton system `apply` preconditioned with a Cholesky factor.
+struct FactorPreconditioned<'a, F> {
+    apply: F,
+    factor: MatRef<'a, f64>,
+}
+
+impl<F: FnMut(&[f64], &mut [f64])> PcgSystem for FactorPreconditioned<'_, F> {
+    type Error = std::convert::Infallible;
+
+    fn apply(&mut self, x: &[f64], image: &mut [f64]) -> Result<(), Self::Error> {
+        (self.apply)(x, image);
+        Ok(())
+    }
+
+    fn precondition(&mut self, residual: &[f64], z: &mut [f64]) -> Result<(), Self::Error> {
+        z.copy_from_slice(residual);
+        cholesky_solve(self.factor, z);
+        Ok(())
+    }
 }
