@@ -416,3 +416,54 @@ fn a_gap_or_prescribed_displacement_that_turns_non_finite_stops_the_step_naming_
         "{error}"
     );
 }
+
+/// Two parts that meet and prescribe one component: values that agree (to rounding) are
+/// accepted, values that differ at some time stop the run at that time naming both parts, the
+/// node and the component.
+#[test]
+fn parts_that_meet_with_different_values_are_refused_naming_both() {
+    let grips = |roller: fn(&[f64; 2], f64) -> f64| {
+        let mesh = Mesh::box_mesh(
+            [0.0, 0.0],
+            [1.0, 1.0],
+            [2, 2],
+            [[Dirichlet, Neumann], [Contact, Dirichlet]],
+        )
+        .unwrap();
+        let top = mesh.boundary_facets_where(|x| x[1] == 1.0);
+        let left = mesh.boundary_facets_where(|x| x[0] == 0.0);
+        let mut data: Data<2> = common::quiet_data();
+        data.dirichlet = vec![
+            PrescribedDisplacement {
+                name: "top".into(),
+                facets: top,
+                components: [
+                    Some(Arc::new(|_: &[f64; 2], t: f64| 0.03 * t)),
+                    Some(Arc::new(|_: &[f64; 2], _: f64| 0.0)),
+                ],
+                traction: None,
+            },
+            PrescribedDisplacement {
+                name: "left".into(),
+                facets: left,
+                components: [Some(Arc::new(roller)), None],
+                traction: None,
+            },
+        ];
+        Simulation::new(common::problem(mesh, 1, data, 1.0, 4))
+    };
+    // the same function written another way: agrees to rounding at the corner (0, 1)
+    let mut agreeing = grips(|_, t| t * 0.1 * 0.3).unwrap();
+    agreeing.run(|_| Ok(())).unwrap();
+    // equal at t = 0, different from the first step on
+    let mut conflicting = grips(|_, t| 0.05 * t).unwrap();
+    let error = conflicting.run(|_| Ok(())).unwrap_err().to_string();
+    assert!(
+        error.contains("`top`")
+            && error.contains("`left`")
+            && error.contains("component 0")
+            && error.contains("[0.0, 1.0]")
+            && error.contains("t = 0.25"),
+        "{error}"
+    );
+}

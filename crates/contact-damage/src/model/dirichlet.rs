@@ -6,8 +6,9 @@
 //! grip); the other components of a part are free with zero traction (a roller or symmetry
 //! plane fixes the normal component only). The Γ1 facets of no part stay clamped, u = 0: the
 //! paper's case. At a node shared by several facets the constraints add up; a component
-//! given by a part takes that part's value (the first part listed wins where parts meet), else
-//! 0 if the node lies on a clamped facet. A part may carry a traction on its free components
+//! given by a part takes that part's value, else 0 if the node lies on a clamped facet. Where
+//! parts that prescribe one component meet, their values must agree at every time: a node
+//! given two values is an error naming both parts, the node and the time. A part may carry a traction on its free components
 //! (zero by default: a frictionless roller), added to the load like f2 on Γ2 (2.6). Where a
 //! roller or symmetry plane meets Γ3, a node keeps the contact rule when the components it
 //! fixes are tangential to Γ3 (see [`crate::model::contact`]); a clamped node of Γ3 leaves it.
@@ -32,6 +33,12 @@ pub struct PrescribedDisplacement<const D: usize> {
     pub traction: Option<PointBoundaryVectorField<D>>,
 }
 
+/// Relative tolerance within which two parts that meet must give a shared unknown one value,
+/// relative to the larger of the two and of the largest prescribed value at that time: the
+/// same function written two ways differs by a few rounding errors, a conflicting one by far
+/// more.
+pub const AGREEMENT: f64 = 1e-12;
+
 /// The name of the reaction entry of the clamped facets of Γ1 (those of no part).
 pub const CLAMPED_PART: &str = "clamped";
 
@@ -43,6 +50,9 @@ pub struct DirichletConstraints<const D: usize> {
     /// For each constrained unknown, in increasing order: (unknown, owner), owner the index in
     /// `names` (the index past the parts is [`CLAMPED_PART`], value 0).
     pub dofs: Vec<(usize, usize)>,
+    /// The other parts that prescribe a constrained unknown (unknown, part), in increasing
+    /// order: where parts meet, each must give the owner's value.
+    pub shared: Vec<(usize, usize)>,
     /// Names of the parts, then [`CLAMPED_PART`] if some Γ1 facet belongs to no part.
     pub names: Vec<String>,
     /// For each boundary facet, the part it belongs to (the first listed).
@@ -104,6 +114,7 @@ impl<const D: usize> DirichletConstraints<D> {
         }
         let clamped = parts.len();
         let mut owner: Vec<Option<usize>> = vec![None; space.num_nodes() * D];
+        let mut shared: Vec<(usize, usize)> = Vec::new();
         let mut any_clamped = false;
         for (f, owner_of_facet) in facet_owner.iter().enumerate() {
             if mesh.facet_part(f) == BoundaryPart::Dirichlet && owner_of_facet.is_none() {
@@ -118,8 +129,14 @@ impl<const D: usize> DirichletConstraints<D> {
                 for &node in space.facet_nodes(f) {
                     for (i, component) in part.components.iter().enumerate() {
                         let slot = &mut owner[node * D + i];
-                        if component.is_some() && slot.is_none_or(|o| o == clamped) {
-                            *slot = Some(p);
+                        if component.is_none() {
+                            continue;
+                        }
+                        match *slot {
+                            None => *slot = Some(p),
+                            Some(o) if o == clamped => *slot = Some(p),
+                            Some(o) if o != p => shared.push((node * D + i, p)),
+                            Some(_) => {}
                         }
                     }
                 }
@@ -136,6 +153,11 @@ impl<const D: usize> DirichletConstraints<D> {
                 .enumerate()
                 .filter_map(|(dof, o)| o.map(|o| (dof, o)))
                 .collect(),
+            shared: {
+                shared.sort_unstable();
+                shared.dedup();
+                shared
+            },
             names,
             facet_owner,
             parts: parts.to_vec(),
@@ -143,7 +165,9 @@ impl<const D: usize> DirichletConstraints<D> {
     }
 
     /// u_D(t) on the constrained unknowns (Cartesian, node-major, zero elsewhere).
-    /// A non-finite value is an [`Error::NonFinite`] naming the part, node and component.
+    /// A non-finite value is an [`Error::NonFinite`] naming the part, node and component; two
+    /// parts that give one unknown values further apart than [`AGREEMENT`] are an
+    /// [`Error::InvalidInput`] naming both parts, the node, the component and the time.
     pub fn values(&self, space: &LagrangeSpace<D>, time: f64) -> Result<Vec<f64>> {
         let mut values = vec![0.0; self.constrained.len()];
         for &(dof, owner) in &self.dofs {
@@ -163,6 +187,32 @@ impl<const D: usize> DirichletConstraints<D> {
                 )));
             }
             values[dof] = value;
+        }
+        let largest = values.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        for &(dof, other) in &self.shared {
+            let (node, i) = (dof / D, dof % D);
+            let Some(field) = &self.parts[other].components[i] else {
+                continue;
+            };
+            let x = space.node(node);
+            let (given, other_value) = (values[dof], field(&x, time));
+            let scale = given.abs().max(other_value.abs()).max(largest);
+            // false for a NaN of the other part as for values apart
+            let agree = (given - other_value).abs() <= AGREEMENT * scale;
+            if !agree {
+                let owner = self
+                    .dofs
+                    .binary_search_by_key(&dof, |&(d, _)| d)
+                    .map(|k| self.names[self.dofs[k].1].as_str())
+                    .unwrap_or("?");
+                return Err(Error::InvalidInput(format!(
+                    "prescribed displacement parts `{owner}` and `{}` meet at node {node} \
+                     {x:?} and give component {i} two values at t = {time}: {given} and \
+                     {other_value} (prescribe the component in one of them, or make the values \
+                     agree where the parts meet)",
+                    self.parts[other].name
+                )));
+            }
         }
         Ok(values)
     }
