@@ -5,11 +5,15 @@
 //! The solver then stops with "non-finite value" and the degree of freedom concerned; it knows
 //! nothing of the problem file. Every load closure of a problem is wrapped so that the first
 //! non-finite value it returns is recorded here, and [`LoadWatch::explain`] turns the solver's
-//! error into one that names the file, the key, the point and the time.
+//! error into one that names the file, the key, the point and the time. A law the solver finds
+//! outside its admissible range during the run is named by its key in the file the same way.
 
 use contact_input::number::short;
 use contact_input::{FileKind, InputError};
 use std::sync::{Arc, Mutex};
+
+/// The laws under `[laws]` whose parameter errors the solver names by their key below it.
+const LAW_KEYS: [&str; 4] = ["elasticity.", "viscosity.", "contact.", "damage_source"];
 
 /// Shared record of the first non-finite load value.
 #[derive(Clone, Default)]
@@ -51,7 +55,9 @@ impl LoadWatch {
         values
     }
 
-    /// The solver's `error`, replaced by the recorded non-finite load value if there is one.
+    /// The solver's `error`, replaced by the recorded non-finite load value if there is one;
+    /// a law that left its admissible range during the run (the solver names the law,
+    /// `elasticity.shear_modulus`) is located at its key under `[laws]` of the file.
     pub fn explain(&self, origin: &str, error: InputError) -> InputError {
         let first = self
             .first
@@ -63,7 +69,16 @@ impl LoadWatch {
                 key,
                 format!("{message} (the solver stopped with: {error})"),
             ),
-            None => error,
+            None => match error {
+                InputError::Solver(contact_damage::Error::InvalidParameter {
+                    name,
+                    reason,
+                    ..
+                }) if LAW_KEYS.iter().any(|law| name.starts_with(law)) => {
+                    FileKind::Problem.error(origin, &format!("laws.{name}"), reason)
+                }
+                other => other,
+            },
         }
     }
 }

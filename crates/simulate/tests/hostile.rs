@@ -334,6 +334,38 @@ fn a_load_undefined_at_one_time_names_its_key_and_the_time() {
     }
 }
 
+/// A moduli law that passes the sampled check at load (β = k/100) but is negative between two
+/// samples stops the run where the damage reaches that band, naming the key, the point, the
+/// damage and the time, instead of running on with μ < 0.
+#[test]
+fn a_moduli_law_negative_between_its_samples_stops_the_run_naming_it() {
+    let dir = scratch("hostile-moduli-range");
+    let problem = small_problem(&dir);
+    let text = std::fs::read_to_string(&problem).unwrap();
+    let from = "elasticity = { kind = \"damaged_hooke\", shear_modulus = 1.0, lame_lambda = 1.0 }";
+    assert!(text.contains(from));
+    // μ(β) < 0 for 0.703 < β < 0.705 only: μ(0.70) = 0.6, μ(0.71) = 1.4
+    let to = "elasticity = { kind = \"moduli\", shear_modulus = \"1 + 0.002/(beta - 0.705)\", \
+              lame_lambda = \"1\" }";
+    let changed = dir.join("changed.toml");
+    let text = text
+        .replace(from, to)
+        .replace("[loads]", "[loads]\ninitial_damage = \"0.704\"");
+    std::fs::write(&changed, &text).unwrap();
+    let output = simulate(&changed, &dir.join("out"), &[]);
+    let message = stderr(&output);
+    assert_eq!(output.status.code(), Some(1), "{message}");
+    for part in [
+        &format!("problem file `{}`", changed.display()),
+        "key `laws.elasticity.shear_modulus`",
+        "μ(0.704)",
+        "quadrature point [",
+        "t = 0",
+    ] {
+        assert!(message.contains(part), "`{part}` missing in {message}");
+    }
+}
+
 /// Huge numbers in messages are printed in scientific notation, not with 300 digits.
 #[test]
 fn a_huge_final_time_is_refused_in_a_short_message() {

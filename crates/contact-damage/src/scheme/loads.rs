@@ -127,6 +127,37 @@ impl<const D: usize> LoadQuadrature<D> {
         }
     }
 
+    /// The first quadrature point of the loads (cell-major order) at which `reject(β)` holds
+    /// for the damage `β_h = Σ_a β_a φ_a` there: the point and β. A run of points with one β
+    /// (an undamaged region) asks `reject` once.
+    pub fn first_damage_point(
+        &self,
+        space: &LagrangeSpace<D>,
+        damage: &[f64],
+        mut reject: impl FnMut(f64) -> bool,
+    ) -> Option<([f64; D], f64)> {
+        let (nodes, nq) = (self.tabulation.nodes, self.tabulation.len());
+        let mut accepted = None;
+        for cell in 0..space.mesh().num_cells() {
+            let cell_nodes = space.cell_nodes(cell);
+            for q in 0..nq {
+                let values = &self.tabulation.values[q * nodes..(q + 1) * nodes];
+                let mut beta = 0.0;
+                for (&node, value) in cell_nodes.iter().zip(values) {
+                    beta += damage[node] * value;
+                }
+                if accepted == Some(beta.to_bits()) {
+                    continue;
+                }
+                if reject(beta) {
+                    return Some((self.points[cell * nq + q], beta));
+                }
+                accepted = Some(beta.to_bits());
+            }
+        }
+        None
+    }
+
     /// Number of quadrature points per cell.
     pub fn points_per_cell(&self) -> usize {
         self.tabulation.len()

@@ -477,6 +477,7 @@ impl<const D: usize> Simulation<D> {
     pub fn step(&mut self) -> Result<StepOutcome> {
         let n = self.state.step + 1;
         let time = n as f64 * self.time_step();
+        self.check_damage_range((n - 1) as f64 * self.time_step())?;
         let started = std::time::Instant::now();
         self.prepare_bulk_data(n);
         let (velocity_load, damage_source) = self.step_loads(time);
@@ -575,6 +576,41 @@ impl<const D: usize> Simulation<D> {
             normal_pressure,
             friction_bound,
         })
+    }
+
+    /// The elasticity law inside its admissible range ([`crate::model::laws::Elasticity::damage_range_violation`])
+    /// at the damage β_{n−1} of every quadrature point where the loads of the step evaluate it,
+    /// for laws that ask for the check: otherwise an error naming the law's key, the point and
+    /// the time `time` = t_{n−1} of the damage.
+    fn check_damage_range(&self, time: f64) -> Result<()> {
+        let law = self.problem.model.elasticity.as_ref();
+        if !law.checks_damage_range() {
+            return Ok(());
+        }
+        let found = self
+            .loads
+            .first_damage_point(&self.space, &self.state.damage, |beta| {
+                law.damage_range_violation(beta).is_some()
+            });
+        let Some((point, beta)) = found else {
+            return Ok(());
+        };
+        match law.damage_range_violation(beta) {
+            Some(Error::InvalidParameter {
+                name,
+                value,
+                reason,
+            }) => Err(Error::InvalidParameter {
+                name,
+                value,
+                reason: format!(
+                    "{reason}, reached by the damage β = {beta} of the run at the quadrature \
+                     point {point:?} at t = {time}"
+                ),
+            }),
+            Some(other) => Err(other),
+            None => Ok(()),
+        }
     }
 
     /// Runs the remaining steps up to N, calling `observer` after each.

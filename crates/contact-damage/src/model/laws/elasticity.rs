@@ -24,6 +24,18 @@ pub trait Elasticity<const D: usize>: Send + Sync {
     fn damage_derivative(&self, strain: &Tensor<D>, damage: f64) -> Tensor<D>;
     /// Checks the parameters against (3.5).
     fn validate(&self) -> Result<()>;
+    /// Whether the law needs [`Elasticity::damage_range_violation`] checked at every point
+    /// where the scheme evaluates it (a law whose admissible range [`Elasticity::validate`]
+    /// can only sample); false by default.
+    fn checks_damage_range(&self) -> bool {
+        false
+    }
+    /// What is wrong with G(·, β) at the damage β (before the clamp to [0, 1]), naming the
+    /// key of the law: an error when G(·, β) is not positive semidefinite or not finite.
+    /// `None` by default.
+    fn damage_range_violation(&self, _damage: f64) -> Option<Error> {
+        None
+    }
     /// Σ_q w_q G(ε, β_q): the stress integrated over a cell on which the strain is constant
     /// (P1 on an affine simplex) from the damage values and weights of its quadrature points.
     /// A law linear in its damage overrides it with one evaluation of G per cell.
@@ -200,7 +212,9 @@ pub trait DamageModuli: Send + Sync {
 /// At the 101 damages β = k/100, k = 0, …, 100: μ, μ', λ, λ' are finite, μ(β) ≥ 0 and
 /// 2μ(β) + dλ(β) ≥ 0 (G(·, β) positive semidefinite), and at β = 1 (undamaged) μ(1) > 0 and
 /// 2μ(1) + dλ(1) > 0 (positive definite). Errors name `elasticity.shear_modulus` or
-/// `elasticity.lame_lambda`.
+/// `elasticity.lame_lambda`. Samples can miss a narrow excursion between them, so the scheme
+/// also checks μ(β̄) ≥ 0, 2μ(β̄) + dλ(β̄) ≥ 0 and finite values at the damage of every quadrature
+/// point of the loads in every step ([`Elasticity::damage_range_violation`]).
 #[derive(Clone)]
 pub struct ModuliElasticity {
     /// μ(β), λ(β).
@@ -212,6 +226,11 @@ impl std::fmt::Debug for ModuliElasticity {
         f.debug_struct("ModuliElasticity").finish_non_exhaustive()
     }
 }
+
+/// The key of μ(β) in errors about [`ModuliElasticity`].
+const SHEAR_MODULUS_KEY: &str = "elasticity.shear_modulus";
+/// The key of λ(β) in errors about [`ModuliElasticity`].
+const LAME_LAMBDA_KEY: &str = "elasticity.lame_lambda";
 
 impl ModuliElasticity {
     fn hooke<const D: usize>(shear: f64, lambda: f64, strain: &Tensor<D>) -> Tensor<D> {
@@ -263,9 +282,38 @@ impl<const D: usize> Elasticity<D> for ModuliElasticity {
             elastic
         }
     }
+    fn checks_damage_range(&self) -> bool {
+        true
+    }
+    fn damage_range_violation(&self, damage: f64) -> Option<Error> {
+        let beta = damage.clamp(0.0, 1.0);
+        let (shear, _) = self.moduli.shear_modulus(beta);
+        let (lambda, _) = self.moduli.lame_lambda(beta);
+        let bulk = 2.0 * shear + D as f64 * lambda;
+        if !shear.is_finite() || shear < 0.0 {
+            Some(Error::parameter(
+                SHEAR_MODULUS_KEY,
+                shear,
+                format!(
+                    "μ(β) must be finite and ≥ 0 (G positive semidefinite); μ({beta}) = {shear}"
+                ),
+            ))
+        } else if !lambda.is_finite() || bulk < 0.0 {
+            Some(Error::parameter(
+                LAME_LAMBDA_KEY,
+                lambda,
+                format!(
+                    "λ(β) must be finite and 2μ(β) + dλ(β) ≥ 0 (G positive semidefinite); at \
+                     β = {beta}: 2μ + dλ = {bulk:.3e} with μ = {shear}"
+                ),
+            ))
+        } else {
+            None
+        }
+    }
     fn validate(&self) -> Result<()> {
-        const SHEAR: &str = "elasticity.shear_modulus";
-        const LAMBDA: &str = "elasticity.lame_lambda";
+        const SHEAR: &str = SHEAR_MODULUS_KEY;
+        const LAMBDA: &str = LAME_LAMBDA_KEY;
         let d = D as f64;
         for k in 0..=100 {
             let beta = f64::from(k) / 100.0;
