@@ -163,26 +163,24 @@ impl LawsFile {
             ElasticityFile::Moduli {
                 shear_modulus,
                 lame_lambda,
-            } => Arc::new(ModuliElasticity {
-                moduli: Arc::new(ExpressionModuli::new(
-                    parse_expr(
-                        kind,
-                        origin,
-                        "laws.elasticity.shear_modulus",
-                        shear_modulus,
-                        &MODULI_VARIABLES,
-                        constants,
-                    )?,
-                    parse_expr(
-                        kind,
-                        origin,
-                        "laws.elasticity.lame_lambda",
-                        lame_lambda,
-                        &MODULI_VARIABLES,
-                        constants,
-                    )?,
-                )),
-            }),
+            } => Arc::new(ModuliElasticity::new(Arc::new(ExpressionModuli::new(
+                parse_expr(
+                    kind,
+                    origin,
+                    "laws.elasticity.shear_modulus",
+                    shear_modulus,
+                    &MODULI_VARIABLES,
+                    constants,
+                )?,
+                parse_expr(
+                    kind,
+                    origin,
+                    "laws.elasticity.lame_lambda",
+                    lame_lambda,
+                    &MODULI_VARIABLES,
+                    constants,
+                )?,
+            )))),
         };
         let frozen = damage == DamageEvolution::Frozen;
         let missing = |key: &str| {

@@ -473,9 +473,7 @@ mod tests {
             );
             proptest::prop_assert!(close(ours, chain), "viscosity: {} vs {}", ours, chain);
             let hooke = DamagedHooke { shear_modulus: 1.3, lame_lambda: -0.4 };
-            let moduli = || ModuliElasticity {
-                moduli: Arc::new(PowerModuli { shear: 2.0, lambda: -0.5, lambda_shift: 0.1 }),
-            };
+            let moduli = || ModuliElasticity::new(Arc::new(PowerModuli { shear: 2.0, lambda: -0.5, lambda_shift: 0.1 }));
             let (ours, chain) = (
                 hooke.stress_divergence(&strain, damage, &derivatives, &damage_gradient),
                 TraitDefaults(hooke).stress_divergence(&strain, damage, &derivatives,
@@ -556,9 +554,7 @@ mod tests {
                 proptest::prop_assert_eq!(bits(&columns), pointwise_bits(pointwise));
             }
             let hooke = DamagedHooke { shear_modulus: 1.3, lame_lambda: -0.4 };
-            let moduli = ModuliElasticity {
-                moduli: Arc::new(PowerModuli { shear: 2.0, lambda: -0.5, lambda_shift: 0.1 }),
-            };
+            let moduli = ModuliElasticity::new(Arc::new(PowerModuli { shear: 2.0, lambda: -0.5, lambda_shift: 0.1 }));
             let elasticities: [&dyn Elasticity<3>; 3] = [&hooke, &moduli, &TraitDefaults(hooke)];
             for law in elasticities {
                 let mut columns: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; count]);
@@ -693,9 +689,7 @@ mod tests {
             shear_modulus: 1.3,
             lame_lambda: 0.7,
         };
-        let law = ModuliElasticity {
-            moduli: Arc::new(LinearModuli(hooke)),
-        };
+        let law = ModuliElasticity::new(Arc::new(LinearModuli(hooke)));
         let eps = sample_tensor();
         let dir = Tensor::<3>::new(0.1, 0.2, 0.0, 0.2, -0.3, 0.4, 0.0, 0.4, 0.25);
         for beta in [-0.5, 0.0, 0.3, 1.0, 1.4] {
@@ -721,13 +715,11 @@ mod tests {
 
     #[test]
     fn moduli_elasticity_derivatives_match_finite_differences_and_clamp() {
-        let law = ModuliElasticity {
-            moduli: Arc::new(PowerModuli {
-                shear: 2.0,
-                lambda: -0.5,
-                lambda_shift: 0.0,
-            }),
-        };
+        let law = ModuliElasticity::new(Arc::new(PowerModuli {
+            shear: 2.0,
+            lambda: -0.5,
+            lambda_shift: 0.0,
+        }));
         Elasticity::<2>::validate(&law).unwrap();
         let eps = Tensor::<2>::new(0.1, 0.2, 0.2, -0.3);
         let dir = Tensor::<2>::new(-0.4, 0.1, 0.1, 0.6);
@@ -775,15 +767,51 @@ mod tests {
     }
 
     #[test]
+    fn moduli_elasticity_notes_evaluations_outside_its_range_and_names_them() {
+        // λ(0) = −0.1: 2μ + 3λ = −0.3 < 0 at β = 0, ≥ 0 from β ≈ 0.23 on
+        let law = ModuliElasticity::new(Arc::new(PowerModuli {
+            shear: 1.0,
+            lambda: 0.5,
+            lambda_shift: -0.1,
+        }));
+        let strain = sample_tensor();
+        let _ = Elasticity::<3>::stress(&law, &strain, 0.9);
+        assert!(!Elasticity::<3>::damage_range_suspect(&law));
+        assert!(Elasticity::<3>::damage_range_violation(&law, 0.9).is_none());
+        let copy = law.clone();
+        let _ = Elasticity::<3>::stress(&law, &strain, 0.0);
+        // sticky, and seen by every holder of the law
+        assert!(Elasticity::<3>::damage_range_suspect(&copy));
+        let message = Elasticity::<3>::damage_range_violation(&law, -0.5)
+            .unwrap()
+            .to_string();
+        assert!(
+            message.contains("`elasticity.lame_lambda`") && message.contains("β = 0"),
+            "{message}"
+        );
+        let message =
+            Elasticity::<3>::damage_range_violation(&law, f64::NAN).map(|e| e.to_string());
+        assert!(
+            message.is_some(),
+            "a NaN damage is clamped to NaN moduli: {message:?}"
+        );
+        // the default of a law with no range to note
+        let hooke = DamagedHooke {
+            shear_modulus: 1.0,
+            lame_lambda: 1.0,
+        };
+        let _ = Elasticity::<3>::stress(&hooke, &strain, 0.0);
+        assert!(!Elasticity::<3>::damage_range_suspect(&hooke));
+    }
+
+    #[test]
     fn moduli_elasticity_check_rejects_indefinite_or_degenerate_moduli_naming_the_key() {
         let check = |shear: f64, lambda: f64, lambda_shift: f64| {
-            Elasticity::<3>::validate(&ModuliElasticity {
-                moduli: Arc::new(PowerModuli {
-                    shear,
-                    lambda,
-                    lambda_shift,
-                }),
-            })
+            Elasticity::<3>::validate(&ModuliElasticity::new(Arc::new(PowerModuli {
+                shear,
+                lambda,
+                lambda_shift,
+            })))
             .map_err(|e| e.to_string())
         };
         assert!(check(1.0, 0.5, 0.0).is_ok());

@@ -477,10 +477,10 @@ impl<const D: usize> Simulation<D> {
     pub fn step(&mut self) -> Result<StepOutcome> {
         let n = self.state.step + 1;
         let time = n as f64 * self.time_step();
-        self.check_damage_range((n - 1) as f64 * self.time_step())?;
         let started = std::time::Instant::now();
         self.prepare_bulk_data(n);
         let (velocity_load, damage_source) = self.step_loads(time);
+        self.check_damage_range((n - 1) as f64 * self.time_step())?;
         self.timings.loads += started.elapsed();
         let k = self.time_step();
         let previous_time = (n - 1) as f64 * k;
@@ -578,13 +578,15 @@ impl<const D: usize> Simulation<D> {
         })
     }
 
-    /// The elasticity law inside its admissible range ([`crate::model::laws::Elasticity::damage_range_violation`])
-    /// at the damage β_{n−1} of every quadrature point where the loads of the step evaluate it,
-    /// for laws that ask for the check: otherwise an error naming the law's key, the point and
-    /// the time `time` = t_{n−1} of the damage.
+    /// The elasticity law inside its admissible range
+    /// ([`crate::model::laws::Elasticity::damage_range_violation`]) at the damage β_{n−1} of
+    /// every quadrature point where the loads of the step evaluated it: otherwise an error
+    /// naming the law's key, the point and the time `time` = t_{n−1} of the damage. The points
+    /// are searched only once the law has noted an evaluation outside its range
+    /// ([`crate::model::laws::Elasticity::damage_range_suspect`]).
     fn check_damage_range(&self, time: f64) -> Result<()> {
         let law = self.problem.model.elasticity.as_ref();
-        if !law.checks_damage_range() {
+        if !law.damage_range_suspect() {
             return Ok(());
         }
         let found = self

@@ -4,6 +4,7 @@
 use super::tensor::{check_finite, isotropic_divergence, trace, FieldJets, Tensor};
 use crate::error::{Error, Result};
 use nalgebra::SVector;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 /// Damage-dependent elasticity G(ε, β) of (2.1). Assumption (3.5): Lipschitz in (ε, β).
@@ -24,10 +25,12 @@ pub trait Elasticity<const D: usize>: Send + Sync {
     fn damage_derivative(&self, strain: &Tensor<D>, damage: f64) -> Tensor<D>;
     /// Checks the parameters against (3.5).
     fn validate(&self) -> Result<()>;
-    /// Whether the law needs [`Elasticity::damage_range_violation`] checked at every point
-    /// where the scheme evaluates it (a law whose admissible range [`Elasticity::validate`]
-    /// can only sample); false by default.
-    fn checks_damage_range(&self) -> bool {
+    /// Whether an evaluation of [`Elasticity::stress`] since the law was built met a damage at
+    /// which [`Elasticity::damage_range_violation`] holds (a law whose admissible range
+    /// [`Elasticity::validate`] can only sample notes it at no cost in the evaluation itself;
+    /// the scheme then locates the point). Sticky: shared by every simulation of the law, so
+    /// it says "look", not where. False by default.
+    fn damage_range_suspect(&self) -> bool {
         false
     }
     /// What is wrong with G(·, β) at the damage β (before the clamp to [0, 1]), naming the
@@ -213,12 +216,15 @@ pub trait DamageModuli: Send + Sync {
 /// 2μ(β) + dλ(β) ≥ 0 (G(·, β) positive semidefinite), and at β = 1 (undamaged) μ(1) > 0 and
 /// 2μ(1) + dλ(1) > 0 (positive definite). Errors name `elasticity.shear_modulus` or
 /// `elasticity.lame_lambda`. Samples can miss a narrow excursion between them, so the scheme
-/// also checks μ(β̄) ≥ 0, 2μ(β̄) + dλ(β̄) ≥ 0 and finite values at the damage of every quadrature
-/// point of the loads in every step ([`Elasticity::damage_range_violation`]).
+/// also checks μ(β̄) ≥ 0, 2μ(β̄) + dλ(β̄) ≥ 0 and finite values wherever it evaluates G
+/// ([`Elasticity::damage_range_suspect`], [`Elasticity::damage_range_violation`]).
 #[derive(Clone)]
 pub struct ModuliElasticity {
     /// μ(β), λ(β).
     pub moduli: Arc<dyn DamageModuli>,
+    /// Set by [`Elasticity::stress`] when it meets μ(β̄) < 0, 2μ(β̄) + dλ(β̄) < 0 or a value that
+    /// is not finite ([`Elasticity::damage_range_suspect`]).
+    outside_range: Arc<AtomicBool>,
 }
 
 impl std::fmt::Debug for ModuliElasticity {
@@ -233,6 +239,23 @@ const SHEAR_MODULUS_KEY: &str = "elasticity.shear_modulus";
 const LAME_LAMBDA_KEY: &str = "elasticity.lame_lambda";
 
 impl ModuliElasticity {
+    /// The law of the moduli `moduli`.
+    pub fn new(moduli: Arc<dyn DamageModuli>) -> Self {
+        Self {
+            moduli,
+            outside_range: Arc::new(AtomicBool::new(false)),
+        }
+    }
+
+    /// Notes moduli outside the admissible range: μ ≥ 0 and 2μ + dλ ≥ 0, both finite.
+    fn note_range(&self, shear: f64, lambda: f64, dimension: usize) {
+        let bulk = 2.0 * shear + dimension as f64 * lambda;
+        let admissible = shear >= 0.0 && bulk >= 0.0 && bulk.is_finite();
+        if !admissible {
+            self.outside_range.store(true, Ordering::Relaxed);
+        }
+    }
+
     fn hooke<const D: usize>(shear: f64, lambda: f64, strain: &Tensor<D>) -> Tensor<D> {
         strain * (2.0 * shear) + Tensor::<D>::identity() * (lambda * trace(strain))
     }
@@ -243,6 +266,7 @@ impl<const D: usize> Elasticity<D> for ModuliElasticity {
         let beta = damage.clamp(0.0, 1.0);
         let (shear, _) = self.moduli.shear_modulus(beta);
         let (lambda, _) = self.moduli.lame_lambda(beta);
+        self.note_range(shear, lambda, D);
         Self::hooke(shear, lambda, strain)
     }
     fn strain_derivative(
@@ -282,8 +306,8 @@ impl<const D: usize> Elasticity<D> for ModuliElasticity {
             elastic
         }
     }
-    fn checks_damage_range(&self) -> bool {
-        true
+    fn damage_range_suspect(&self) -> bool {
+        self.outside_range.load(Ordering::Relaxed)
     }
     fn damage_range_violation(&self, damage: f64) -> Option<Error> {
         let beta = damage.clamp(0.0, 1.0);
