@@ -4,9 +4,10 @@
 //! **Zone.** Normal compliance presses where the penetration r = u_ν − g is positive
 //! (p_ν(r) = 0 for r ≤ 0, (2.10)). Counting whole contact nodes overestimates the zone by up to
 //! half an element at each end; instead r is interpolated on every facet of Γ3 from its values
-//! at the facet's nodes — linearly on the facet (P1), linearly on the sub-facets through the
-//! edge midpoints (P2: 2 sub-segments, 4 sub-triangles) — and the zone is the part of Γ3 where
-//! that interpolant is > 0, each (sub-)facet clipped at its zero crossing. Its measure (a length
+//! at the facet's nodes — linearly on the facet (P1), linearly on the two halves of a P2 segment
+//! (2D), and on a P2 triangle (3D) linearly through its edge midpoints, the only nodes of a
+//! quadratic triangle with contact weight — and the zone is the part of Γ3 where that
+//! interpolant is > 0, each (sub-)facet clipped at its zero crossing. Its measure (a length
 //! in 2D, an area in 3D) and its extent along the axis of Γ3's longest spread (the axis of
 //! `contact_history.csv`) are reported. r at a node uses the node's frame normal ν_a at contact
 //! nodes and the facet normal elsewhere (nodes of Γ3 that carry no contact unknowns: on Γ1, or
@@ -28,10 +29,24 @@ fn sub_facets(dim: usize, degree: usize) -> &'static [&'static [usize]] {
         (2, 1) => &[&[0, 1]],
         // facet nodes v0, v1, m01
         (2, _) => &[&[0, 2], &[2, 1]],
-        (3, 1) => &[&[0, 1, 2]],
-        // facet nodes v0, v1, v2, m01, m12, m02
-        _ => &[&[0, 3, 5], &[1, 4, 3], &[2, 5, 4], &[3, 4, 5]],
+        // the whole facet: at P2 its corner values come from the midpoints
+        // ([`corner_values_from_midpoints`])
+        _ => &[&[0, 1, 2]],
     }
+}
+
+/// The values at the corners v0, v1, v2 of the linear function through the values at the
+/// edge midpoints m01, m12, m02 (facet-local nodes 3, 4, 5 of a 6-node triangle): r(v0) =
+/// r(m01) + r(m02) − r(m12) and cyclically.
+///
+/// Why: the nodal weights ∫ φ_a of the quadratic triangle vanish at its vertices, so on a P2
+/// face of Γ3 only the edge midpoints carry the contact rule; a vertex, pressed by nothing,
+/// may sit on either side of the foundation by more than the midpoints' penetration p/c_ν,
+/// and its value says nothing about contact (taking it clipped a 3D P2 zone to about half its
+/// area).
+fn corner_values_from_midpoints(values: [f64; 6]) -> [f64; 3] {
+    let [_, _, _, m01, m12, m02] = values;
+    [m01 + m02 - m12, m01 + m12 - m02, m12 + m02 - m01]
 }
 
 /// The part of Γ3 where the interpolated penetration is positive.
@@ -95,12 +110,15 @@ pub fn contact_zone<const D: usize>(
             continue;
         }
         let nodes = space.facet_nodes(f);
+        let from_midpoints = (D == 3 && nodes.len() == 6)
+            .then(|| corner_values_from_midpoints(std::array::from_fn(|i| penetration[nodes[i]])));
         for piece in pieces {
             let corners: Vec<(SVector<f64, D>, f64)> = piece
                 .iter()
                 .map(|&i| {
                     let node = nodes[i];
-                    (SVector::from(space.node(node)), penetration[node])
+                    let value = from_midpoints.map_or(penetration[node], |corners| corners[i]);
+                    (SVector::from(space.node(node)), value)
                 })
                 .collect();
             let clipped = positive_part(&corners);
@@ -280,6 +298,35 @@ mod tests {
             assert!((zone.measure - 0.3).abs() < 1e-14, "{zone:?}");
             assert!(zone.lower.abs() < 1e-14 && (zone.upper - 0.3).abs() < 1e-14);
         }
+    }
+
+    #[test]
+    fn zone_on_a_p2_face_ignores_the_vertices_that_carry_no_contact_weight() {
+        // r = 0.3 − x at the edge midpoints and r = ±1 alternating at the vertices (unpressed
+        // vertices, on either side of the foundation): the zone is that of the midpoints,
+        // [0, 0.3] × [0, 1]
+        let mesh = Mesh::box_mesh(
+            [0.0; 3],
+            [1.0; 3],
+            [4, 3, 2],
+            [[Neumann, Neumann], [Dirichlet, Neumann], [Contact, Neumann]],
+        )
+        .unwrap();
+        let space = LagrangeSpace::new(Arc::new(mesh), 2).unwrap();
+        let contact = ContactNodes::new(&space).unwrap();
+        let vertices = space.mesh().num_vertices();
+        let displacement = vec![0.0; space.num_nodes() * 3];
+        let mut r = boundary_penetration(&space, &contact, &displacement, |x| x[0] - 0.3);
+        let mut sign = 1.0;
+        for value in r.iter_mut().take(vertices) {
+            if !value.is_nan() {
+                *value = sign;
+                sign = -sign;
+            }
+        }
+        let zone = contact_zone(&space, &r, 0);
+        assert!((zone.measure - 0.3).abs() < 1e-14, "{zone:?}");
+        assert!(zone.lower.abs() < 1e-14 && (zone.upper - 0.3).abs() < 1e-14);
     }
 
     #[test]
