@@ -6,7 +6,7 @@ use crate::folder::STATE_FILE;
 use crate::history::RunningSums;
 use crate::problem::ProblemSetup;
 use contact_damage::scheme::{Simulation, State};
-use contact_input::InputError;
+use contact_input::{FileKind, InputError};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -53,6 +53,10 @@ pub struct SavedState {
     pub viscous_dissipation: f64,
     /// [`ProblemSetup::fingerprint`] of the problem that was run.
     pub fingerprint: BTreeMap<String, String>,
+    /// `output.every` of the run: which steps have rows in `contact_history.csv` (a resumed
+    /// run must keep it). Absent from the files of earlier versions: not checked then.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub output_every: Option<usize>,
 }
 
 /// Checks the values of a saved state as strictly as an input file: fields of the right
@@ -220,6 +224,19 @@ pub(crate) fn resume<const D: usize>(
                 setup.origin
             )));
         }
+    }
+    if let Some(every) = saved.output_every.filter(|&every| every != setup.every) {
+        return Err(FileKind::Problem.error(
+            &setup.origin,
+            "output.every",
+            format!(
+                "{} here, but the run saved in {} wrote its contact history every {every} \
+                 steps; a resumed run continues the files of that run, so resume with \
+                 output.every = {every} (or start afresh with --overwrite)",
+                setup.every,
+                state_path.display()
+            ),
+        ));
     }
     if saved.accumulated_slip.len() != contact_nodes {
         return Err(mismatch(

@@ -212,6 +212,7 @@ pub(crate) fn save_step<const D: usize>(
             friction_dissipation: sums.friction_dissipation,
             viscous_dissipation: sums.viscous_dissipation,
             fingerprint: setup.fingerprint.clone(),
+            output_every: Some(setup.every),
         },
     )?;
     Ok(())

@@ -1116,3 +1116,39 @@ fn p2_contact_zone_in_3d_is_the_quarter_disc_of_its_radius() {
         "zone {area}, quarter disc {disc}"
     );
 }
+
+/// A resumed run keeps `output.every`, which decides the rows of `contact_history.csv`: another
+/// value is refused naming the file and the key (it used to fail on a row of the contact
+/// history); the same value resumes.
+#[test]
+fn resume_refuses_another_output_every_naming_the_key() {
+    let dir = scratch("simulate-resume-every");
+    let problem = tiny_example(&dir);
+    let out = dir.join("out");
+    simulate::run_file(
+        &problem,
+        &RunOptions {
+            until_step: Some(3),
+            ..quiet(&out)
+        },
+    )
+    .unwrap();
+    let changed = dir.join("every3.toml");
+    let text = std::fs::read_to_string(&problem).unwrap();
+    assert!(text.contains("every = 4"));
+    std::fs::write(&changed, text.replace("every = 4", "every = 3")).unwrap();
+    let resume = RunOptions {
+        resume: true,
+        ..quiet(&out)
+    };
+    let error = simulate::run_file(&changed, &resume)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("every3.toml")
+            && error.contains("key `output.every`")
+            && error.contains("every 4 steps"),
+        "{error}"
+    );
+    simulate::run_file(&problem, &resume).unwrap();
+}
