@@ -190,7 +190,8 @@ pub fn run<const D: usize>(
         ),
         options,
     )?;
-    let mut simulation = Simulation::new(setup.problem.clone())?;
+    let mut simulation = Simulation::new(setup.problem.clone())
+        .map_err(|error| setup.load_watch.explain(&setup.origin, error.into()))?;
     let (mut time_loop, mut progress) = StepLoop::prepare(setup, options, &mut simulation, dir)?;
     time_loop.print_start(&simulation)?;
     while simulation.state().step < time_loop.last_step {

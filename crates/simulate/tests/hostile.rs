@@ -317,6 +317,11 @@ fn a_load_undefined_at_one_time_names_its_key_and_the_time() {
             "\"-pressure*max(0, ny)",
             "\"-pressure*(1 + 0/(t - 0.1))*max(0, ny)",
         ),
+        (
+            "displacement[0].x",
+            "[output]",
+            "[[displacement]]\npart = \"x_min\"\nx = \"0.001*t + 0/(t - 0.1)\"\ny = \"0\"\n\n[output]",
+        ),
     ] {
         assert!(text.contains(from), "{from}");
         let changed = dir.join("changed.toml");
@@ -363,6 +368,40 @@ fn a_moduli_law_negative_between_its_samples_stops_the_run_naming_it() {
         "t = 0",
     ] {
         assert!(message.contains(part), "`{part}` missing in {message}");
+    }
+}
+
+/// Initial data out of range (β0 outside [0, 1], u0 ≠ u_D(x, 0) on Γ1) are refused with the
+/// file, the key under `[loads]` and the node, not as a bare solver parameter.
+#[test]
+fn initial_data_out_of_range_name_the_file_and_the_key() {
+    let dir = scratch("hostile-initial-data");
+    let problem = small_problem(&dir);
+    let text = std::fs::read_to_string(&problem).unwrap();
+    for (key, line) in [
+        ("loads.initial_damage", "initial_damage = \"1.5\""),
+        ("loads.initial_damage", "initial_damage = \"1 + 0/(x - 1)\""),
+        (
+            "loads.initial_displacement",
+            "initial_displacement = [\"0.1\", \"0\"]",
+        ),
+    ] {
+        let changed = dir.join("changed.toml");
+        std::fs::write(
+            &changed,
+            text.replace("[loads]", &format!("[loads]\n{line}")),
+        )
+        .unwrap();
+        let output = simulate(&changed, &dir.join("out"), &[]);
+        let message = stderr(&output);
+        assert_eq!(output.status.code(), Some(1), "{message}");
+        for part in [
+            format!("problem file `{}`", changed.display()),
+            format!("key `{key}`"),
+            "at node".into(),
+        ] {
+            assert!(message.contains(&part), "`{part}` missing in {message}");
+        }
     }
 }
 

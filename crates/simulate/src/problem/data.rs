@@ -225,7 +225,8 @@ impl<const D: usize> LoadExpressions<D> {
 }
 
 /// The `[[displacement]]` parts as the solver's prescribed displacements on their facets: each
-/// component parsed in x, y, z, t and checked finite at the part's vertices at `times`.
+/// component parsed in x, y, z, t and checked finite at the part's vertices at `times`; a
+/// non-finite value at another time is recorded by `load_watch` under its key.
 pub(super) fn prescribed_displacements<const D: usize>(
     file: &ProblemFile,
     origin: &str,
@@ -233,6 +234,7 @@ pub(super) fn prescribed_displacements<const D: usize>(
     mesh: &Mesh<D>,
     part_facets: Vec<Vec<usize>>,
     times: &[f64],
+    load_watch: &LoadWatch,
 ) -> Result<Vec<PrescribedDisplacement<D>>, InputError> {
     let mut parts = Vec::new();
     for (i, (part, facets)) in file.displacement.iter().zip(part_facets).enumerate() {
@@ -279,9 +281,10 @@ pub(super) fn prescribed_displacements<const D: usize>(
                 }
             }
             let compiled = CompiledField::new(&[expr]);
+            let watch = load_watch.clone();
             components[c] = Some(Arc::new(move |x: &[f64; D], t: f64| {
-                let [value] = compiled.eval(x, &[t]);
-                value
+                let value = compiled.eval(x, &[t]);
+                watch.check(&key, "u_D", value, x, t)[0]
             }) as PointScalarField<D>);
         }
         parts.push(PrescribedDisplacement {

@@ -158,11 +158,18 @@ impl<const D: usize> ProblemSetup<D> {
         let times = [0.0, 0.5 * file.final_time, file.final_time];
         loads.check_body_force(&mesh, &times, origin)?;
         loads.check_gap(&mesh, &times, origin)?;
-        let dirichlet =
-            prescribed_displacements::<D>(&file, origin, constants, &mesh, part_facets, &times)?;
+        let load_watch = LoadWatch::default();
+        let dirichlet = prescribed_displacements::<D>(
+            &file,
+            origin,
+            constants,
+            &mesh,
+            part_facets,
+            &times,
+            &load_watch,
+        )?;
         loads.check_traction(&mesh, &times, origin)?;
 
-        let load_watch = LoadWatch::default();
         let problem = Problem {
             mesh: Arc::new(mesh),
             degree: file.degree,
