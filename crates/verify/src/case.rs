@@ -486,7 +486,7 @@ impl<const D: usize> Case<D> {
         positive(FileKind::Case, origin, "final_time", file.final_time)?;
         check_study_definitions(origin, &file.studies, file.domain.is_mesh())?;
         if let Some(regularity) = &file.regularity {
-            crate::regularity::check_exponents(origin, regularity, &file.constants)?;
+            crate::exponents::check_exponents(origin, &regularity.exponents, &file.constants)?;
         }
         let (domain, prescribed) = build_domain::<D>(&file, origin)?;
         let constants = &file.constants;

@@ -11,7 +11,8 @@
 //! - [`manufactured`]: source terms f0, f2, f3, q derived by automatic differentiation;
 //! - [`error_norms`]: the components of E(h, k) of Theorem 5.2;
 //! - [`study`]: h-, k- and diagonal studies with rates and verdicts;
-//! - [`regularity`]: regularity sweeps, the observed rates against the smoothness of the solution;
+//! - [`regularity`]: regularity sweeps, the observed rates against the smoothness of the solution
+//!   (the admissible exponents of their profiles in [`exponents`]);
 //! - [`baseline`]: the committed baseline of the built-in cases and what moved in it;
 //! - [`report`]: CSV, JSON and SVG reports, `report.md` and `tables.tex` ([`tables`]), from
 //!   the rows of the CSV files ([`rows`]);
@@ -24,6 +25,7 @@ pub mod case;
 pub mod cli;
 pub mod domain;
 pub mod error_norms;
+pub mod exponents;
 pub mod manufactured;
 pub mod plot;
 pub mod regularity;

@@ -28,9 +28,8 @@
 
 pub mod report;
 
-use std::collections::BTreeMap;
-
-use crate::case::{CaseFile, RegularityFile};
+use crate::case::CaseFile;
+use crate::exponents;
 use crate::study::expected_h_rate;
 use crate::InputError;
 use contact_input::FileKind;
@@ -46,9 +45,6 @@ pub struct Profile {
 }
 
 impl Profile {
-    /// The data are square-integrable for p above this: f0 = −Div σ ∝ d^{p−2} ∈ L² iff p > 3/2.
-    pub const DATA_LIMIT: f64 = 1.5;
-
     /// s such that the field is in H^{s−ε} for every ε > 0 and not in H^s: p + 1/2.
     pub fn sobolev_index(self) -> f64 {
         self.exponent + 0.5
@@ -166,48 +162,6 @@ fn round_decimal(value: f64) -> f64 {
     text.parse().unwrap_or(value)
 }
 
-/// Checks `[regularity]` of a case file: every exponent names a constant of `[constants]` whose
-/// value keeps the data square-integrable ([`Profile::DATA_LIMIT`]).
-pub fn check_exponents(
-    origin: &str,
-    regularity: &RegularityFile,
-    constants: &BTreeMap<String, f64>,
-) -> Result<(), InputError> {
-    if regularity.exponents.is_empty() {
-        return Err(FileKind::Case.error(
-            origin,
-            "regularity.exponents",
-            "names no constant (list the exponents a regularity sweep may vary, e.g. [\"p\"])",
-        ));
-    }
-    for name in &regularity.exponents {
-        let Some(&value) = constants.get(name) else {
-            return Err(FileKind::Case.error(
-                origin,
-                "regularity.exponents",
-                format!("`{name}` is not a constant of [constants]"),
-            ));
-        };
-        check_value(origin, name, value)?;
-    }
-    Ok(())
-}
-
-/// The exponent `name` may take `value`: the data stay square-integrable.
-fn check_value(origin: &str, name: &str, value: f64) -> Result<(), InputError> {
-    if value > Profile::DATA_LIMIT {
-        Ok(())
-    } else {
-        Err(FileKind::Case.error(
-            origin,
-            &format!("constants.{name}"),
-            format!(
-                "{name} = {value}: the body force f0 = −Div σ of a profile (d)₊^{name} behaves like d^({name}−2), which is not square-integrable for {name} ≤ 3/2; choose {name} > 3/2"
-            ),
-        ))
-    }
-}
-
 /// Checks a sweep against the case file before anything runs: the constant is an exponent of
 /// `[regularity]`, and every value keeps the data square-integrable; sets [`Sweep::others`].
 pub fn check_sweep(sweep: &mut Sweep, file: &CaseFile, origin: &str) -> Result<(), InputError> {
@@ -225,7 +179,7 @@ pub fn check_sweep(sweep: &mut Sweep, file: &CaseFile, origin: &str) -> Result<(
         )));
     }
     for &value in &sweep.values {
-        check_value(origin, &sweep.name, value).map_err(|error| {
+        exponents::check_value(origin, &sweep.name, value).map_err(|error| {
             InputError::InvalidInput(format!("--regularity {}: {error}", sweep.name))
         })?;
     }
@@ -343,28 +297,5 @@ mod tests {
         assert_eq!(table["constants"]["x"].as_float(), Some(0.5));
         assert_eq!(origin, "front.toml (p = 2.25)");
         assert_eq!(value_folder("p", 2.25), "p=2.25");
-    }
-
-    #[test]
-    fn exponents_that_leave_the_data_outside_l2_are_refused_naming_the_key() {
-        let constants = BTreeMap::from([("p".to_string(), 1.5), ("q".to_string(), 3.0)]);
-        let regularity = |names: &[&str]| RegularityFile {
-            exponents: names.iter().map(|n| n.to_string()).collect(),
-        };
-        let error = check_exponents("c.toml", &regularity(&["q", "p"]), &constants)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            error.contains("constants.p") && error.contains("not square-integrable"),
-            "{error}"
-        );
-        let error = check_exponents("c.toml", &regularity(&["r"]), &constants)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            error.contains("regularity.exponents") && error.contains("`r`"),
-            "{error}"
-        );
-        assert!(check_exponents("c.toml", &regularity(&["q"]), &constants).is_ok());
     }
 }
