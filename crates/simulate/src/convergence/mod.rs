@@ -282,6 +282,107 @@ fn check_fresh_reports(out: &Path, names: &[String], overwrite: bool) -> Result<
     )))
 }
 
+/// A level's history: its path, its header and its rows.
+type History = (PathBuf, Vec<String>, Vec<Vec<f64>>);
+
+/// Checks every level of a study before the first run: its size from its file, finest first,
+/// before any mesh is built, then the level built and validated (e.g. a Gmsh mesh refined
+/// beyond the memory).
+fn check_levels(
+    files: &[ProblemFile],
+    options: &ConvergenceOptions,
+    origin: &str,
+    path: &Path,
+) -> Result<(), InputError> {
+    let limit = RunOptions {
+        memory_limit: options.memory_limit,
+        ..RunOptions::default()
+    }
+    .memory_limit();
+    for (index, level) in files.iter().enumerate().rev() {
+        if let Some(gmsh) = &level.mesh.gmsh {
+            if gmsh.refinements > MAX_REFINEMENTS {
+                return Err(invalid(format!(
+                    "--convergence {}: level {index} would refine the Gmsh mesh {} times, above the limit of {MAX_REFINEMENTS} (mesh.gmsh.refinements + level); use fewer levels",
+                    options.levels, gmsh.refinements
+                )));
+            }
+        }
+        if let Some(mesh) = &level.mesh.box_mesh {
+            contact_damage::algebra::memory::check(
+                contact_damage::algebra::memory::estimate_box(&mesh.cells, level.degree),
+                limit,
+                &format!(
+                    "--convergence {}: level {index} ({}) of {origin}",
+                    options.levels,
+                    mesh_label(&mesh.cells, None)
+                ),
+                "--memory-limit",
+            )?;
+        }
+    }
+    for level in files {
+        match level.dim {
+            2 => drop(ProblemSetup::<2>::new(level.clone(), path)?),
+            3 => drop(ProblemSetup::<3>::new(level.clone(), path)?),
+            other => {
+                return Err(invalid(format!(
+                    "{origin}: dim must be 2 or 3, got {other}"
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The quantities of the study: each timed column at each time and each final column, its
+/// value on every level (read from the level's history at the step of that time), the GCI
+/// triplets and, from four levels on, the least-squares fit.
+fn study_quantities(
+    times: &[f64],
+    coarse_steps: &[usize],
+    file: &ProblemFile,
+    histories: &[History],
+    levels: &[Level],
+) -> Result<Vec<Quantity>, InputError> {
+    let final_time = file.final_time;
+    let mut wanted: Vec<(String, f64, usize)> = Vec::new();
+    for (&t, &n) in times.iter().zip(coarse_steps) {
+        for column in TIMED_COLUMNS {
+            wanted.push((column.to_string(), t, n));
+        }
+    }
+    for column in FINAL_COLUMNS {
+        wanted.push((column.to_string(), final_time, file.steps));
+    }
+    let h_finest_first: Vec<f64> = levels.iter().rev().map(|l| l.h).collect();
+    let mut quantities = Vec::new();
+    for (column, time, coarse) in wanted {
+        let values: Vec<f64> = histories
+            .iter()
+            .zip(levels)
+            .map(|((path, header, rows), level)| {
+                let step = coarse * level.steps / file.steps;
+                history_value(path, header, rows, &column, step)
+            })
+            .collect::<Result<_, _>>()?;
+        let finest_first: Vec<f64> = values.iter().rev().copied().collect();
+        let triplets = triplets(&h_finest_first, &finest_first)
+            .map_err(|e| invalid(format!("{column} at t = {time}: {e}")))?;
+        let least_squares = (values.len() > 3)
+            .then(|| least_squares(&h_finest_first, &finest_first))
+            .flatten();
+        quantities.push(Quantity {
+            column,
+            time,
+            values,
+            triplets,
+            least_squares,
+        });
+    }
+    Ok(quantities)
+}
+
 /// Runs the study of the problem file at `path`.
 pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Study, InputError> {
     if options.levels < 3 {
@@ -327,47 +428,7 @@ pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Stud
     let files: Vec<ProblemFile> = (0..options.levels)
         .map(|i| level_file(&file, &origin, options.ratio, i))
         .collect::<Result<_, _>>()?;
-    // the size of every level is checked from its file, finest first, before any mesh is built
-    let limit = RunOptions {
-        memory_limit: options.memory_limit,
-        ..RunOptions::default()
-    }
-    .memory_limit();
-    for (index, level) in files.iter().enumerate().rev() {
-        if let Some(gmsh) = &level.mesh.gmsh {
-            if gmsh.refinements > MAX_REFINEMENTS {
-                return Err(invalid(format!(
-                    "--convergence {}: level {index} would refine the Gmsh mesh {} times, above the limit of {MAX_REFINEMENTS} (mesh.gmsh.refinements + level); use fewer levels",
-                    options.levels, gmsh.refinements
-                )));
-            }
-        }
-        if let Some(mesh) = &level.mesh.box_mesh {
-            contact_damage::algebra::memory::check(
-                contact_damage::algebra::memory::estimate_box(&mesh.cells, level.degree),
-                limit,
-                &format!(
-                    "--convergence {}: level {index} ({}) of {origin}",
-                    options.levels,
-                    mesh_label(&mesh.cells, None)
-                ),
-                "--memory-limit",
-            )?;
-        }
-    }
-    // every level is built and checked (e.g. a Gmsh mesh refined beyond the memory) before the
-    // first run
-    for level in &files {
-        match level.dim {
-            2 => drop(ProblemSetup::<2>::new(level.clone(), path)?),
-            3 => drop(ProblemSetup::<3>::new(level.clone(), path)?),
-            other => {
-                return Err(invalid(format!(
-                    "{origin}: dim must be 2 or 3, got {other}"
-                )));
-            }
-        }
-    }
+    check_levels(&files, options, &origin, path)?;
     let mut levels = Vec::new();
     let mut histories = Vec::new();
     for (index, level) in files.into_iter().enumerate() {
@@ -430,40 +491,7 @@ pub fn run_convergence(path: &Path, options: &ConvergenceOptions) -> Result<Stud
             max_kkt: outcome.max_kkt,
         });
     }
-    let mut wanted: Vec<(String, f64, usize)> = Vec::new();
-    for (&t, &n) in times.iter().zip(&coarse_steps) {
-        for column in TIMED_COLUMNS {
-            wanted.push((column.to_string(), t, n));
-        }
-    }
-    for column in FINAL_COLUMNS {
-        wanted.push((column.to_string(), final_time, file.steps));
-    }
-    let h_finest_first: Vec<f64> = levels.iter().rev().map(|l| l.h).collect();
-    let mut quantities = Vec::new();
-    for (column, time, coarse) in wanted {
-        let values: Vec<f64> = histories
-            .iter()
-            .zip(&levels)
-            .map(|((path, header, rows), level)| {
-                let step = coarse * level.steps / file.steps;
-                history_value(path, header, rows, &column, step)
-            })
-            .collect::<Result<_, _>>()?;
-        let finest_first: Vec<f64> = values.iter().rev().copied().collect();
-        let triplets = triplets(&h_finest_first, &finest_first)
-            .map_err(|e| invalid(format!("{column} at t = {time}: {e}")))?;
-        let least_squares = (values.len() > 3)
-            .then(|| least_squares(&h_finest_first, &finest_first))
-            .flatten();
-        quantities.push(Quantity {
-            column,
-            time,
-            values,
-            triplets,
-            least_squares,
-        });
-    }
+    let quantities = study_quantities(&times, &coarse_steps, &file, &histories, &levels)?;
     Ok(Study {
         name: file.name.clone().unwrap_or_else(|| {
             path.file_stem()

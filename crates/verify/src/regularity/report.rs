@@ -234,26 +234,12 @@ pub fn table(sweep: &Sweep, points: &[SweepPoint]) -> String {
 /// (exponent, least-squares rate, its standard error or 0) of one component at one value.
 type RatePoint = (f64, f64, f64);
 
-/// The plot of the observed rates against the exponent (linear axes).
-fn rate_svg(
-    path: &Path,
-    case: &str,
-    degree: usize,
-    sweep: &Sweep,
-    points: &[SweepPoint],
-) -> Result<(), InputError> {
-    let plot_error = |message: String| InputError::Plot {
-        path: path.to_path_buf(),
-        message,
-    };
-    let drawing_error = |error: &dyn std::fmt::Display| plot_error(error.to_string());
-    if points.is_empty() {
-        return Err(plot_error("no value to plot".to_string()));
-    }
-    let components = components(points);
-    let curves: Vec<(&str, Vec<RatePoint>)> = components
-        .iter()
-        .map(|&component| {
+/// Per error component, the (exponent, least-squares rate, standard error) of every value whose
+/// rate is finite (an undefined standard error drawn as 0).
+fn rate_curves(points: &[SweepPoint]) -> Vec<(&str, Vec<RatePoint>)> {
+    components(points)
+        .into_iter()
+        .map(|component| {
             let values = points
                 .iter()
                 .filter_map(|point| {
@@ -275,7 +261,26 @@ fn rate_svg(
                 .collect();
             (component, values)
         })
-        .collect();
+        .collect()
+}
+
+/// The plot of the observed rates against the exponent (linear axes).
+fn rate_svg(
+    path: &Path,
+    case: &str,
+    degree: usize,
+    sweep: &Sweep,
+    points: &[SweepPoint],
+) -> Result<(), InputError> {
+    let plot_error = |message: String| InputError::Plot {
+        path: path.to_path_buf(),
+        message,
+    };
+    let drawing_error = |error: &dyn std::fmt::Display| plot_error(error.to_string());
+    if points.is_empty() {
+        return Err(plot_error("no value to plot".to_string()));
+    }
+    let curves = rate_curves(points);
     let (p_low, p_high) = (
         sweep.values.first().copied().unwrap_or(0.0),
         sweep.values.last().copied().unwrap_or(1.0),
