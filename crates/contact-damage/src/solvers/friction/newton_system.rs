@@ -20,9 +20,9 @@ pub(super) const NEWTON_PCG_TOLERANCE: f64 = 1e-14;
 /// [`NEWTON_PCG_TOLERANCE`] ‖b‖_∞ plus this many ulps of ‖A‖_∞ ‖y‖_∞, the rounding floor of
 /// evaluating b − A y (the accuracy of a backward-stable factorization; nothing looser).
 pub(super) const NEWTON_PCG_ROUNDING_ULPS: f64 = 16.0;
-/// Iterations after which the preconditioned conjugate gradients give up and the Newton system
-/// is factorized afresh.
-pub(super) const NEWTON_PCG_ITERATIONS: usize = 25;
+/// Iterations (products with the Newton matrix after the start) after which the preconditioned
+/// conjugate gradients give up and the Newton system is factorized afresh.
+pub(super) const NEWTON_PCG_ITERATIONS: usize = 24;
 
 /// The non-stick unknowns N of a Newton system and its slip curvatures D (3D): blocks at
 /// `position` in N with direction n and curvature c, D = c (I − n nᵀ).
