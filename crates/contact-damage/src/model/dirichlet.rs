@@ -8,10 +8,11 @@
 //! paper's case. At a node shared by several facets the constraints add up; a component
 //! given by a part takes that part's value, else 0 if the node lies on a clamped facet. Where
 //! parts that prescribe one component meet, their values must agree at every time: a node
-//! given two values is an error naming both parts, the node and the time. A part may carry a traction on its free components
-//! (zero by default: a frictionless roller), added to the load like f2 on Γ2 (2.6). Where a
-//! roller or symmetry plane meets Γ3, a node keeps the contact rule when the components it
-//! fixes are tangential to Γ3 (see [`crate::model::contact`]); a clamped node of Γ3 leaves it.
+//! given two values is an error naming both parts, the node and the time. A part may carry a
+//! traction on its free components (zero by default: a frictionless roller), added to the load
+//! like f2 on Γ2 (2.6). Where a roller or symmetry plane meets Γ3, a node keeps the contact
+//! rule when the components it fixes are tangential to Γ3 (see [`crate::model::contact`]); a
+//! clamped node of Γ3 leaves it.
 
 use crate::error::{Error, Result};
 use crate::fem::mesh::BoundaryPart;

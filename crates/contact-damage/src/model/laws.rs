@@ -473,7 +473,9 @@ mod tests {
             );
             proptest::prop_assert!(close(ours, chain), "viscosity: {} vs {}", ours, chain);
             let hooke = DamagedHooke { shear_modulus: 1.3, lame_lambda: -0.4 };
-            let moduli = || ModuliElasticity::new(Arc::new(PowerModuli { shear: 2.0, lambda: -0.5, lambda_shift: 0.1 }));
+            let moduli = || ModuliElasticity::new(Arc::new(PowerModuli {
+                shear: 2.0, lambda: -0.5, lambda_shift: 0.1,
+            }));
             let (ours, chain) = (
                 hooke.stress_divergence(&strain, damage, &derivatives, &damage_gradient),
                 TraitDefaults(hooke).stress_divergence(&strain, damage, &derivatives,
@@ -554,7 +556,9 @@ mod tests {
                 proptest::prop_assert_eq!(bits(&columns), pointwise_bits(pointwise));
             }
             let hooke = DamagedHooke { shear_modulus: 1.3, lame_lambda: -0.4 };
-            let moduli = ModuliElasticity::new(Arc::new(PowerModuli { shear: 2.0, lambda: -0.5, lambda_shift: 0.1 }));
+            let moduli = ModuliElasticity::new(Arc::new(PowerModuli {
+                shear: 2.0, lambda: -0.5, lambda_shift: 0.1,
+            }));
             let elasticities: [&dyn Elasticity<3>; 3] = [&hooke, &moduli, &TraitDefaults(hooke)];
             for law in elasticities {
                 let mut columns: [Vec<f64>; 3] = std::array::from_fn(|_| vec![0.0; count]);
