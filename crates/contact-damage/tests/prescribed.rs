@@ -405,7 +405,8 @@ fn a_gap_or_prescribed_displacement_that_turns_non_finite_stops_the_step_naming_
             Some(Arc::new(|_: &[f64; 2], t: f64| {
                 (0.5 - t).sqrt() - 0.5f64.sqrt()
             })),
-            None,
+            // u_y too: a grip of u_x alone would leave the body free to slide along y
+            Some(Arc::new(|_: &[f64; 2], _: f64| 0.0)),
         ],
         traction: None,
     }];
@@ -465,5 +466,31 @@ fn parts_that_meet_with_different_values_are_refused_naming_both() {
             && error.contains("[0.0, 1.0]")
             && error.contains("t = 0.25"),
         "{error}"
+    );
+}
+
+/// A body whose only Γ1 side prescribes u_x is free to slide along y: refused before anything
+/// is factorized, naming the motion and the part (the scheme used to run on the singular
+/// matrix of (5.1) until something else failed).
+#[test]
+fn a_body_free_to_move_rigidly_is_refused_naming_the_motion_and_the_part() {
+    let mesh = common::square(2);
+    let left = mesh.boundary_facets_where(|x| x[0] == 0.0);
+    let mut data: Data<2> = common::quiet_data();
+    data.dirichlet = vec![PrescribedDisplacement {
+        name: "grip".into(),
+        facets: left,
+        components: [Some(Arc::new(|_: &[f64; 2], t: f64| 0.01 * t)), None],
+        traction: None,
+    }];
+    let Err(error) = Simulation::new(common::problem(mesh, 1, data, 1.0, 4)) else {
+        panic!("a body free to slide along y was accepted");
+    };
+    let message = error.to_string();
+    assert!(
+        message.contains("can move rigidly")
+            && message.contains("translation along y")
+            && message.contains("`grip`"),
+        "{message}"
     );
 }

@@ -16,6 +16,7 @@ use crate::fem::space::{FacetRule, LagrangeSpace};
 use crate::model::contact::{ContactNodes, ContactStatus};
 use crate::model::dirichlet::DirichletConstraints;
 pub use crate::model::dirichlet::PrescribedDisplacement;
+use crate::model::rigid::check_rigid_motions;
 use crate::scheme::assembly::FacetPoints;
 use crate::scheme::damage::{DamageOperator, DamageSolution};
 use crate::scheme::loads::{BulkData, LoadQuadrature};
@@ -229,6 +230,7 @@ impl<const D: usize> Simulation<D> {
         }
         let space = Arc::new(LagrangeSpace::new(problem.mesh.clone(), problem.degree)?);
         let dirichlet = DirichletConstraints::new(&space, &problem.data.dirichlet)?;
+        check_rigid_motions(&space, &dirichlet)?;
         let contact = Arc::new(ContactNodes::with_constraints(
             &space,
             &dirichlet.constrained,
