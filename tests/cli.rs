@@ -719,3 +719,31 @@ fn pipes_devices_and_directories_are_refused_by_name_before_they_are_read() {
     );
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// A moduli law that passes its sampled check at load but is negative in a band the damage of
+/// the runs reaches (β ≈ 0.704): the failed runs name the case file and the law's key under
+/// `[laws]`, the damage, the point and the time.
+#[test]
+fn verify_names_the_key_of_a_law_that_leaves_its_range_during_the_runs() {
+    let dir = scratch("moduli-range");
+    let case = changed_zones2d(
+        &dir,
+        "elasticity = { kind = \"damaged_hooke\", shear_modulus = 1.0, lame_lambda = 1.0 }",
+        "elasticity = { kind = \"moduli\", shear_modulus = \"1 + 0.002/(beta - 0.705)\", \
+         lame_lambda = \"1\" }",
+    );
+    let output = verify()
+        .args(["--case", case.to_str().unwrap(), "--levels", "2", "--out"])
+        .arg(dir.join("out"))
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(output.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("case `")
+            && stderr.contains("changed.toml`, key `laws.elasticity.shear_modulus`")
+            && stderr.contains("quadrature point")
+            && stderr.contains("at t = "),
+        "{stderr}"
+    );
+}

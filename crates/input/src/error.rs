@@ -85,7 +85,42 @@ pub enum InputError {
     Solver(#[from] contact_damage::Error),
 }
 
+/// The laws under `[laws]` whose parameter errors the solver names by their key below it.
+const LAW_KEYS: [&str; 4] = ["elasticity.", "viscosity.", "contact.", "damage_source"];
+
+/// The initial data under `[loads]` whose errors the solver names by their key.
+const INITIAL_KEYS: [&str; 2] = ["initial_damage", "initial_displacement"];
+
 impl InputError {
+    /// A solver error that names a key of the input file, located in the file `origin` of
+    /// kind `kind`: a law that left its admissible range during a run (the solver names it,
+    /// `elasticity.shear_modulus`) at its key under `[laws]`, initial data out of range
+    /// (`initial_damage at node 0 [0.0, 0.0]`) at theirs under `[loads]`. Other errors are
+    /// returned unchanged.
+    pub fn located(self, kind: FileKind, origin: &str) -> InputError {
+        match self {
+            InputError::Solver(contact_damage::Error::InvalidParameter {
+                name, reason, ..
+            }) if LAW_KEYS.iter().any(|law| name.starts_with(law)) => {
+                kind.error(origin, &format!("laws.{name}"), reason)
+            }
+            InputError::Solver(contact_damage::Error::InvalidParameter {
+                name,
+                value,
+                reason,
+            }) if INITIAL_KEYS.iter().any(|key| name.starts_with(key)) => {
+                // the key, then where
+                let (key, place) = name.split_once(' ').unwrap_or((name.as_str(), ""));
+                kind.error(
+                    origin,
+                    &format!("loads.{key}"),
+                    format!("{place}: {key} = {}: {reason}", crate::number::short(value)),
+                )
+            }
+            other => other,
+        }
+    }
+
     /// Whether this is a write into a closed pipe (see [`crate::console`]).
     pub fn is_closed_pipe(&self) -> bool {
         matches!(self, InputError::Console(error) if error.is_closed_pipe())
@@ -104,6 +139,34 @@ impl InputError {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn solver_errors_that_name_a_key_are_located_in_the_file() {
+        let law = InputError::Solver(contact_damage::Error::parameter(
+            "elasticity.shear_modulus",
+            -1.0,
+            "μ(β) must be ≥ 0",
+        ));
+        assert_eq!(
+            law.located(FileKind::Case, "c.toml").to_string(),
+            "case `c.toml`, key `laws.elasticity.shear_modulus`: μ(β) must be ≥ 0"
+        );
+        let initial = InputError::Solver(contact_damage::Error::parameter(
+            "initial_damage at node 3 [0.5, 0.0]",
+            1.5,
+            "β0 must take values in [0, 1]",
+        ));
+        assert_eq!(
+            initial.located(FileKind::Problem, "p.toml").to_string(),
+            "problem file `p.toml`, key `loads.initial_damage`: at node 3 [0.5, 0.0]: \
+             initial_damage = 1.5: β0 must take values in [0, 1]"
+        );
+        let other = InputError::Solver(contact_damage::Error::parameter("steps", 0.0, "≥ 1"));
+        assert!(!other
+            .located(FileKind::Problem, "p.toml")
+            .to_string()
+            .contains("p.toml"));
+    }
 
     #[test]
     fn the_file_kind_words_the_message() {

@@ -12,12 +12,6 @@ use contact_input::number::short;
 use contact_input::{FileKind, InputError};
 use std::sync::{Arc, Mutex};
 
-/// The laws under `[laws]` whose parameter errors the solver names by their key below it.
-const LAW_KEYS: [&str; 4] = ["elasticity.", "viscosity.", "contact.", "damage_source"];
-
-/// The initial data under `[loads]` whose errors the solver names by their key.
-const INITIAL_KEYS: [&str; 2] = ["initial_damage", "initial_displacement"];
-
 /// Shared record of the first non-finite load value.
 #[derive(Clone, Default)]
 pub struct LoadWatch {
@@ -59,9 +53,8 @@ impl LoadWatch {
     }
 
     /// The solver's `error`, replaced by the recorded non-finite load value if there is one;
-    /// a law that left its admissible range during the run (the solver names the law,
-    /// `elasticity.shear_modulus`) is located at its key under `[laws]` of the file, and
-    /// initial data out of range at theirs under `[loads]`.
+    /// otherwise located at its key in the file if the solver named one
+    /// ([`InputError::located`]).
     pub fn explain(&self, origin: &str, error: InputError) -> InputError {
         let first = self
             .first
@@ -73,29 +66,7 @@ impl LoadWatch {
                 key,
                 format!("{message} (the solver stopped with: {error})"),
             ),
-            None => match error {
-                InputError::Solver(contact_damage::Error::InvalidParameter {
-                    name,
-                    reason,
-                    ..
-                }) if LAW_KEYS.iter().any(|law| name.starts_with(law)) => {
-                    FileKind::Problem.error(origin, &format!("laws.{name}"), reason)
-                }
-                InputError::Solver(contact_damage::Error::InvalidParameter {
-                    name,
-                    value,
-                    reason,
-                }) if INITIAL_KEYS.iter().any(|key| name.starts_with(key)) => {
-                    // `initial_damage at node 0 [0.0, 0.0]`: the key, then where
-                    let (key, place) = name.split_once(' ').unwrap_or((name.as_str(), ""));
-                    FileKind::Problem.error(
-                        origin,
-                        &format!("loads.{key}"),
-                        format!("{place}: {} = {}: {reason}", key, short(value)),
-                    )
-                }
-                other => other,
-            },
+            None => error.located(FileKind::Problem, origin),
         }
     }
 }

@@ -588,7 +588,8 @@ pub fn reference_states<const D: usize>(
 /// A failed run of `simulation` whose time step lies above the stability limit of the explicit
 /// terms of (5.1) ([`contact_damage::scheme::stability`]) is reported as such, naming the case and the
 /// level; the solver's own error (typically a Newton or friction solve that no longer
-/// converges) follows as the symptom. Other failures pass unchanged.
+/// converges) follows as the symptom. Other failures pass unchanged, located at their key in
+/// the case file when the solver names one ([`InputError::located`]).
 fn explain_failure<const D: usize>(
     case: &Case<D>,
     simulation: &mut Simulation<D>,
@@ -604,7 +605,7 @@ fn explain_failure<const D: usize>(
             limit.time_step,
             limit.largest_rate,
         )),
-        _ => error.into(),
+        _ => InputError::from(error).located(contact_input::FileKind::Case, &case.origin),
     }
 }
 
