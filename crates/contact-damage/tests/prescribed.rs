@@ -364,21 +364,37 @@ fn moving_negative_gap_is_taken_at_the_start_of_the_step_explicit_and_at_its_end
     }
 }
 
-#[test]
-fn a_part_on_the_contact_boundary_is_refused_naming_it() {
-    let mesh = common::square(4);
-    let bottom = mesh.boundary_facets_where(|x| x[1] == 0.0);
+/// The error of setting up a simulation on the unit square (`cells` per side, Γ1 = {x = 0},
+/// Γ3 = {y = 0}) with the one part `name` on the side where `on_side` holds.
+fn setup_error(
+    cells: usize,
+    name: &str,
+    on_side: fn(&[f64; 2]) -> bool,
+    components: [Option<PointScalarField<2>>; 2],
+) -> String {
+    let mesh = common::square(cells);
+    let facets = mesh.boundary_facets_where(on_side);
     let mut data: Data<2> = common::quiet_data();
     data.dirichlet = vec![PrescribedDisplacement {
-        name: "floor".into(),
-        facets: bottom,
-        components: [None, Some(Arc::new(|_: &[f64; 2], _: f64| 0.0))],
+        name: name.into(),
+        facets,
+        components,
         traction: None,
     }];
     let Err(error) = Simulation::new(common::problem(mesh, 1, data, 1.0, 2)) else {
-        panic!("a part on Γ3 was accepted");
+        panic!("part `{name}` was accepted");
     };
-    let message = error.to_string();
+    error.to_string()
+}
+
+#[test]
+fn a_part_on_the_contact_boundary_is_refused_naming_it() {
+    let message = setup_error(
+        4,
+        "floor",
+        |x| x[1] == 0.0,
+        [None, Some(Arc::new(|_: &[f64; 2], _: f64| 0.0))],
+    );
     assert!(
         message.contains("`floor`") && message.contains("Γ3"),
         "{message}"
@@ -474,19 +490,12 @@ fn parts_that_meet_with_different_values_are_refused_naming_both() {
 /// matrix of (5.1) until something else failed).
 #[test]
 fn a_body_free_to_move_rigidly_is_refused_naming_the_motion_and_the_part() {
-    let mesh = common::square(2);
-    let left = mesh.boundary_facets_where(|x| x[0] == 0.0);
-    let mut data: Data<2> = common::quiet_data();
-    data.dirichlet = vec![PrescribedDisplacement {
-        name: "grip".into(),
-        facets: left,
-        components: [Some(Arc::new(|_: &[f64; 2], t: f64| 0.01 * t)), None],
-        traction: None,
-    }];
-    let Err(error) = Simulation::new(common::problem(mesh, 1, data, 1.0, 4)) else {
-        panic!("a body free to slide along y was accepted");
-    };
-    let message = error.to_string();
+    let message = setup_error(
+        2,
+        "grip",
+        |x| x[0] == 0.0,
+        [Some(Arc::new(|_: &[f64; 2], t: f64| 0.01 * t)), None],
+    );
     assert!(
         message.contains("can move rigidly")
             && message.contains("translation along y")
