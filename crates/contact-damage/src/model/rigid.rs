@@ -9,7 +9,7 @@
 //! [`check_rigid_motions`] tells this before anything is factorized, naming the motion and the
 //! parts of Γ1 that would have to stop it.
 
-use nalgebra::{DMatrix, DVector};
+use nalgebra::{SMatrix, SVector};
 
 use crate::error::{Error, Result};
 use crate::fem::space::LagrangeSpace;
@@ -33,7 +33,10 @@ fn rigid_motion<const D: usize>(
     if k < D {
         return if i == k { 1.0 } else { 0.0 };
     }
-    let arm: Vec<f64> = (0..D).map(|j| (x[j] - center[j]) / size).collect();
+    let mut arm = [0.0; 3];
+    for j in 0..D {
+        arm[j] = (x[j] - center[j]) / size;
+    }
     if D == 2 {
         // ω e_z × (x − c) = ω (−(y − c_y), x − c_x)
         return [-arm[1], arm[0]][i];
@@ -104,44 +107,60 @@ pub fn check_rigid_motions<const D: usize>(
 ) -> Result<()> {
     let (piece_of_node, count) = pieces(space);
     let motions = if D == 2 { 3 } else { 6 };
-    for piece in 0..count {
-        let nodes: Vec<usize> = (0..space.num_nodes())
-            .filter(|&node| piece_of_node[node] == piece)
-            .collect();
-        let mut center = [0.0; D];
-        for &node in &nodes {
-            let x = space.node(node);
-            for j in 0..D {
-                center[j] += x[j] / nodes.len() as f64;
-            }
-        }
-        let size = nodes
+    // per piece, in passes over the nodes and the constrained unknowns: the first node, the
+    // centroid, the size (largest distance from the centroid), the Gram matrix of the rigid
+    // motions over the constrained unknowns, and the parts that constrain it
+    let mut first_node = vec![usize::MAX; count];
+    let mut nodes_in = vec![0usize; count];
+    let mut centers = vec![[0.0; D]; count];
+    // a vertex in no cell (possible in a mesh given by its arrays) belongs to no piece
+    let in_pieces = || {
+        piece_of_node
             .iter()
-            .map(|&node| {
-                let x = space.node(node);
-                (0..D)
-                    .map(|j| (x[j] - center[j]).powi(2))
-                    .sum::<f64>()
-                    .sqrt()
-            })
-            .fold(0.0_f64, f64::max)
-            .max(f64::MIN_POSITIVE);
-        let mut gram = DMatrix::<f64>::zeros(motions, motions);
-        let mut owners: Vec<usize> = Vec::new();
-        for &(dof, owner) in &dirichlet.dofs {
-            let node = dof / D;
-            if piece_of_node[node] != piece {
-                continue;
-            }
-            let x = space.node(node);
-            let values = DVector::from_fn(motions, |k, _| {
-                rigid_motion::<D>(k, dof % D, &x, &center, size)
-            });
-            gram += &values * values.transpose();
-            if !owners.contains(&owner) {
-                owners.push(owner);
-            }
+            .enumerate()
+            .filter(|(_, &piece)| piece != usize::MAX)
+    };
+    for (node, &piece) in in_pieces() {
+        first_node[piece] = first_node[piece].min(node);
+        nodes_in[piece] += 1;
+        let x = space.node(node);
+        for j in 0..D {
+            centers[piece][j] += x[j];
         }
+    }
+    for (center, &n) in centers.iter_mut().zip(&nodes_in) {
+        for value in center.iter_mut() {
+            *value /= n as f64;
+        }
+    }
+    let mut sizes = vec![f64::MIN_POSITIVE; count];
+    for (node, &piece) in in_pieces() {
+        let x = space.node(node);
+        let distance = (0..D)
+            .map(|j| (x[j] - centers[piece][j]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        sizes[piece] = sizes[piece].max(distance);
+    }
+    let mut grams = vec![SMatrix::<f64, 6, 6>::zeros(); count];
+    let mut owners: Vec<Vec<usize>> = vec![Vec::new(); count];
+    for &(dof, owner) in &dirichlet.dofs {
+        let piece = piece_of_node[dof / D];
+        if piece == usize::MAX {
+            continue;
+        }
+        let x = space.node(dof / D);
+        let mut values = SVector::<f64, 6>::zeros();
+        for (k, value) in values.iter_mut().take(motions).enumerate() {
+            *value = rigid_motion::<D>(k, dof % D, &x, &centers[piece], sizes[piece]);
+        }
+        grams[piece] += values * values.transpose();
+        if !owners[piece].contains(&owner) {
+            owners[piece].push(owner);
+        }
+    }
+    for piece in 0..count {
+        let gram = grams[piece].view((0, 0), (motions, motions)).clone_owned();
         let eigen = gram.symmetric_eigen();
         let (weakest, smallest) = eigen
             .eigenvalues
@@ -161,15 +180,16 @@ pub fn check_rigid_motions<const D: usize>(
             .map(|k| motion_name(k, D))
             .collect();
         let where_ = if count > 1 {
-            let x = space.node(nodes[0]);
+            let node = first_node[piece];
+            let x = space.node(node);
             format!(
-                "the piece of the mesh with node {} {x:?} ({} of {count} unconnected pieces)",
-                nodes[0],
+                "the piece of the mesh with node {node} {x:?} ({} of {count} unconnected pieces)",
                 piece + 1
             )
         } else {
             "the body".to_string()
         };
+        let owners = &mut owners[piece];
         owners.sort_unstable();
         let constraints = if owners.is_empty() {
             "no clamped facet and no prescribed displacement part touch it".to_string()
@@ -254,6 +274,38 @@ mod tests {
             message.contains("can move rigidly") && message.contains("`part0`"),
             "{message}"
         );
+    }
+
+    #[test]
+    fn in_3d_a_clamped_face_stops_every_motion_and_a_roller_does_not() {
+        let cube = Mesh::box_mesh(
+            [0.0; 3],
+            [1.0; 3],
+            [2, 2, 2],
+            [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]],
+        )
+        .unwrap();
+        let space = LagrangeSpace::new(Arc::new(cube), 1).unwrap();
+        let clamped = DirichletConstraints::new(&space, &[]).unwrap();
+        check_rigid_motions(&space, &clamped).unwrap();
+        // u_x = 0 on x = 0 stops the translation along x and the rotations about y and z; the
+        // translations along y and z and the rotation about x stay free
+        let face = space.mesh().boundary_facets_where(|x| x[0] == 0.0);
+        let roller = PrescribedDisplacement {
+            name: "roller".into(),
+            facets: face,
+            components: [zero(), None, None],
+            traction: None,
+        };
+        let dirichlet = DirichletConstraints::new(&space, &[roller]).unwrap();
+        let message = check_rigid_motions(&space, &dirichlet)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("can move rigidly") && message.contains("`roller`"),
+            "{message}"
+        );
+        assert!(!message.contains("translation along x"), "{message}");
     }
 
     #[test]
