@@ -292,6 +292,43 @@ fn loads2d_satisfies_its_strong_form_with_all_zones_a_free_roller_component_and_
     );
 }
 
+/// The 3D analogue of loads2d: all three components prescribed on z = 1, a roller on x = 0
+/// fixing u_x (tangential to Γ3 where the two meet) and leaving u_y, u_z free, the moving gap.
+#[test]
+fn loads3d_satisfies_its_strong_form_with_all_zones_free_roller_components_and_a_negative_gap() {
+    let zones = check_strong_form::<3>("loads3d");
+    assert_all_zones(&zones);
+    let case = load::<3>("loads3d");
+    let exact = &case.exact;
+    // u_D = u on z = 1 is nonzero in every component; on the roller x = 0, u_x = 0 is
+    // prescribed and the free u_y, u_z are not zero
+    let top = [0.8, 0.3, 1.0];
+    for component in &exact.displacement {
+        assert!(value(component, &top, 1.0).abs() > 1e-3);
+    }
+    let roller = [0.0, 0.4, 0.7];
+    assert_eq!(value(&exact.displacement[0], &roller, 0.5), 0.0);
+    assert!(value(&exact.displacement[1], &roller, 0.5).abs() > 1e-3);
+    assert!(value(&exact.displacement[2], &roller, 0.5).abs() > 1e-3);
+    // the gap moves and is negative on part of Γ3 (z = 0) while the body is in contact there
+    let contact = [0.9, 0.5, 0.0];
+    assert!(value(&exact.gap, &contact, 0.0) > 0.0);
+    assert!(value(&exact.gap, &contact, 1.0) < 0.0);
+    let problem = case.problem(3, 1, 4).unwrap();
+    let names: Vec<&str> = problem
+        .data
+        .dirichlet
+        .iter()
+        .map(|p| p.name.as_str())
+        .collect();
+    assert_eq!(names, ["z_max", "x_min"]);
+    let roller = &problem.data.dirichlet[1].components;
+    assert!(
+        roller[0].is_some() && roller[1].is_none() && roller[2].is_none(),
+        "the roller fixes u_x only"
+    );
+}
+
 fn assert_all_zones(zones: &Zones) {
     assert!(
         zones.separation > 0 && zones.stick > 0 && zones.slip > 0 && zones.bound_active > 0,

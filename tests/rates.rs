@@ -316,6 +316,16 @@ const COARSE_3D: Plan = Plan {
 };
 
 #[test]
+fn rates_prescribed_displacement_roller_moving_gap_3d_order1() {
+    studies::<3>("loads3d", 1, Zones::All, COARSE_3D);
+}
+
+#[test]
+fn rates_prescribed_displacement_roller_moving_gap_3d_order2() {
+    studies::<3>("loads3d", 2, Zones::All, COARSE_3D);
+}
+
+#[test]
 fn rates_mild_nonlinear_viscosity_3d_order1() {
     studies::<3>("mild3d", 1, Zones::All, COARSE_3D);
 }

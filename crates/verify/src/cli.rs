@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 
 /// Built-in cases: (name, TOML text). The files live in `verification/`; the meshes of the
 /// cases on Gmsh meshes are built in too ([`crate::domain::BUILT_IN_MESHES`]).
-pub const BUILT_IN_CASES: [(&str, &str); 15] = [
+pub const BUILT_IN_CASES: [(&str, &str); 16] = [
     ("slip2d", include_str!("../../../verification/slip2d.toml")),
     (
         "zones2d",
@@ -43,6 +43,10 @@ pub const BUILT_IN_CASES: [(&str, &str); 15] = [
     (
         "loads2d",
         include_str!("../../../verification/loads2d.toml"),
+    ),
+    (
+        "loads3d",
+        include_str!("../../../verification/loads3d.toml"),
     ),
     ("mild3d", include_str!("../../../verification/mild3d.toml")),
     (
@@ -99,7 +103,7 @@ pub struct StudyArgs {
     /// Space dimension of the default case (2 or 3); ignored with --case.
     #[arg(long, default_value_t = 2)]
     pub dim: usize,
-    /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d, mild2d, strong2d, wear2d, carreau2d, implicit2d, loads2d, mild3d, strong3d, wear3d, tilted2d, tilted3d).
+    /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d, mild2d, strong2d, wear2d, carreau2d, implicit2d, loads2d, loads3d, mild3d, strong3d, wear3d, tilted2d, tilted3d).
     #[arg(long)]
     pub case: Option<String>,
     /// Use only the first (coarsest) N levels of every study (N ≥ 2: a rate needs two levels).
