@@ -44,8 +44,8 @@ use contact_damage::model::contact::ContactStatus;
 use contact_damage::scheme::damage::assemble_damage_matrix;
 use contact_damage::scheme::Simulation;
 use contact_damage::solvers::box_qp::BoxQpMethod;
+use simulate::contact_line::{ContactLine, LineCoordinate};
 use simulate::history::{DomainQuadrature, RunningSums};
-use simulate::pictures::ContactLine;
 use simulate::problem::{parse_problem_file, ProblemSetup};
 use simulate::record::record_step;
 use std::fmt::Write as _;
@@ -271,7 +271,7 @@ fn measure_window<const D: usize>(
     setup: &ProblemSetup<D>,
     simulation: &mut Simulation<D>,
     quadrature: &DomainQuadrature<D>,
-    axis: usize,
+    coordinate: &LineCoordinate,
     sums: &mut RunningSums,
 ) -> Result<Window, Failure> {
     let before = *simulation.timings();
@@ -287,7 +287,7 @@ fn measure_window<const D: usize>(
         let outcome = simulation.step()?;
         total += started.elapsed().as_secs_f64();
         let started = Instant::now();
-        let record = record_step(setup, simulation, &outcome, quadrature, axis, sums);
+        let record = record_step(setup, simulation, &outcome, quadrature, coordinate, sums);
         std::hint::black_box(record.row.csv_line());
         statistics += started.elapsed().as_secs_f64();
         let contact_damage::StepOutcome {
@@ -361,7 +361,7 @@ fn measure_windows<const D: usize>(
     for _ in 0..REPEATS {
         simulation.set_state(start_state.clone())?;
         sums = start_sums.clone();
-        let window = measure_window(setup, simulation, &quadrature, line.axis, &mut sums)?;
+        let window = measure_window(setup, simulation, &quadrature, &line.coordinate, &mut sums)?;
         let solver = simulation.velocity_operator().solver();
         let reference = best_of(REFERENCE_SOLVES, || solver.solve(&rhs));
         references.push(reference);

@@ -7,11 +7,14 @@
 //! - `tangential_force` = |Σ_a ω_a p_τ(a) R_a(0, λ_a)|, the magnitude of the resultant friction
 //!   force, and `force_x`, `force_y`, `force_z` the components of the resultant force of the
 //!   foundation on the body, F = Σ_a ω_a (−p_ν(a) ν_a − p_τ(a) R_a(0, λ_a)) (`force_z` = 0 in
-//!   2D; see [`crate::zone`]);
+//!   2D), and `moment_x`, `moment_y`, `moment_z` its moment about the point
+//!   `output.moment_about` (default the origin; only `moment_z` is nonzero in 2D; see
+//!   [`crate::zone`]);
 //! - `contact_zone`: the measure (length in 2D, area in 3D) of the part of Γ3 where the
 //!   interpolated penetration r = u_ν − g (at the displacement whose p_ν the step used) is
-//!   positive, clipped at its zero crossing, and `zone_min`, `zone_max` its extent along the
-//!   axis of `contact_history.csv` (empty when there is no contact; see [`crate::zone`]);
+//!   positive, clipped at its zero crossing, and `zone_min`, `zone_max` its extent in the
+//!   coordinate s of the line of `contact_history.csv` (empty when there is no contact; see
+//!   [`crate::zone`] and [`crate::contact_line`]);
 //! - `slip_zone` = Σ_{a slipping} ω_a: the measure of the slipping part of Γ3, by nodes;
 //! - `slip_rate` = Σ_a ω_a |v_{n,τ}(a)| = ∫_Γ3 |v_τ|;
 //! - `max_accumulated_slip` = max_a Σ_{m ≤ n} k |v_{m,τ}(a)|: the longest distance slipped
@@ -43,7 +46,7 @@ use std::path::Path;
 pub const HISTORY_FILE: &str = "history.csv";
 /// The fixed columns of the time history (see the module documentation); the reaction columns
 /// of the parts of Γ1 follow them ([`history_header`]).
-pub const HISTORY_HEADER: &str = "step,t,normal_force,tangential_force,force_x,force_y,force_z,contact_zone,zone_min,zone_max,slip_zone,stick,slip,separated,slip_rate,max_accumulated_slip,friction_power,friction_dissipation,viscous_power,viscous_dissipation,mean_damage,area_damage_below_half,velocity_kkt,damage_kkt,newton_iterations,friction_iterations,damage_iterations";
+pub const HISTORY_HEADER: &str = "step,t,normal_force,tangential_force,force_x,force_y,force_z,moment_x,moment_y,moment_z,contact_zone,zone_min,zone_max,slip_zone,stick,slip,separated,slip_rate,max_accumulated_slip,friction_power,friction_dissipation,viscous_power,viscous_dissipation,mean_damage,area_damage_below_half,velocity_kkt,damage_kkt,newton_iterations,friction_iterations,damage_iterations";
 
 /// The header of `history.csv` for the parts `parts` of Γ1 in dimension `dim`: the fixed
 /// columns, then `reaction_<part>_x`, `…_y` (, `…_z`) per part — the resultant force that the
@@ -92,9 +95,12 @@ pub struct HistoryRow {
     pub tangential_force: f64,
     /// The resultant force of the foundation on the body (x, y, z; z = 0 in 2D).
     pub force: [f64; 3],
+    /// Its moment about `output.moment_about` (x, y, z; only z in 2D).
+    pub moment: [f64; 3],
     /// Measure of {r > 0} on Γ3 from the zero crossing of the interpolated penetration.
     pub contact_zone: f64,
-    /// Extent of the contact zone along the axis of `contact_history.csv` (NaN when empty).
+    /// Extent of the contact zone in the coordinate s of `contact_history.csv` (NaN when
+    /// empty).
     pub zone_bounds: [f64; 2],
     /// Σ ω_a over the slipping contact nodes.
     pub slip_zone: f64,
@@ -138,7 +144,7 @@ impl HistoryRow {
     /// The row as a line of `history.csv` (floats in their shortest round-trip form).
     pub fn csv_line(&self) -> String {
         format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:e},{:e},{},{},{}{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{:e},{:e},{},{},{}{}\n",
             self.step,
             self.time,
             self.normal_force,
@@ -146,6 +152,9 @@ impl HistoryRow {
             self.force[0],
             self.force[1],
             self.force[2],
+            self.moment[0],
+            self.moment[1],
+            self.moment[2],
             self.contact_zone,
             optional(self.zone_bounds[0]),
             optional(self.zone_bounds[1]),
@@ -784,6 +793,7 @@ pub(crate) mod tests {
                 normal_force: 0.0,
                 tangential_force: 0.0,
                 force: [0.0; 3],
+                moment: [0.0; 3],
                 contact_zone: 0.0,
                 zone_bounds: [f64::NAN; 2],
                 slip_zone: 0.0,

@@ -9,9 +9,12 @@
 //! - [`folder`]: which files of the output folder are ours, and what `--overwrite` and
 //!   `--resume` may remove;
 //! - [`history`]: the integral quantities of `history.csv` (forces, zones, slip, dissipation, damage);
+//! - [`contact_line`]: the line of Γ3 recorded in `contact_history.csv` and the coordinate s
+//!   along it;
 //! - [`pictures`]: SVG pictures of the damage field and of the contact history on Γ3;
 //! - [`zone`]: the contact zone from the zero crossing of the penetration, and the contact force.
 
+pub mod contact_line;
 pub mod convergence;
 pub mod folder;
 pub mod history;

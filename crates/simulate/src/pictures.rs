@@ -3,20 +3,18 @@
 //! - `damage_NNNNNN.svg`: β_n on the mesh (2D: every triangle filled with the colour of the mean
 //!   of its nodal values), or on the contact face Γ3 (3D: its facets projected onto the plane
 //!   of the face), with a colour bar 0..1;
-//! - `contact_history.svg`: along Γ3, the contact status (separated, stick, slip) of every
-//!   saved step (`output.every`) as a space–time map, and below it the normal pressure p_ν and the accumulated slip
-//!   Σ_{m ≤ n} k |v_{m,τ}| at a few times.
+//! - `contact_history.svg`: along a line of Γ3, the contact status (separated, stick, slip) of
+//!   every saved step (`output.every`) as a space–time map, and below it the normal pressure
+//!   p_ν and the accumulated slip Σ_{m ≤ n} k |v_{m,τ}| at a few times.
 //!
 //! The contact history is drawn from `contact_history.csv` (one row per contact node of the
-//! line drawn and saved step, appended during the run and truncated on `--resume` like
-//! `history.csv`), so that a resumed run draws the whole run. The coordinate `s` along Γ3 is
-//! the coordinate axis along which the contact nodes spread most; in 3D only the contact nodes
-//! on the line of the face nearest its middle (in the other in-plane axis) are recorded — on a
-//! box mesh that is a grid line, on an unstructured mesh the nodes that happen to lie on it.
+//! line and saved step, appended during the run and truncated on `--resume` like
+//! `history.csv`), so that a resumed run draws the whole run. Which nodes make the line, and
+//! the coordinate `s` along it: [`crate::contact_line`].
 
+use crate::contact_line::{axis_of_spread, AXIS_NAMES};
 use contact_damage::fem::mesh::BoundaryPart;
 use contact_damage::fem::space::LagrangeSpace;
-use contact_damage::model::contact::{ContactNodes, ContactStatus};
 use contact_input::output::write_atomic;
 use contact_input::InputError;
 use plotters::prelude::*;
@@ -38,8 +36,6 @@ const STATUS_COLORS: [RGBColor; 3] = [
     RGBColor(31, 119, 180),
     RGBColor(255, 127, 14),
 ];
-/// Names of the coordinate axes.
-const AXIS_NAMES: [&str; 3] = ["x", "y", "z"];
 
 /// File name of the damage picture of step n.
 pub fn damage_picture_file(step: usize) -> String {
@@ -77,150 +73,6 @@ pub fn damage_color(beta: f64) -> RGBColor {
     let (a, b) = (ANCHORS[low], ANCHORS[low + 1]);
     let mix = |x: f64, y: f64| (x + weight * (y - x)).round() as u8;
     RGBColor(mix(a.0, b.0), mix(a.1, b.1), mix(a.2, b.2))
-}
-
-/// Index of the coordinate in which `points` spread least (`smallest = true`) or most.
-fn axis_of_spread<const D: usize>(points: &[[f64; D]], smallest: bool, among: &[usize]) -> usize {
-    let spread = |axis: usize| {
-        let (low, high) = points
-            .iter()
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |acc, p| {
-                (acc.0.min(p[axis]), acc.1.max(p[axis]))
-            });
-        high - low
-    };
-    let mut best = among[0];
-    for &axis in &among[1..] {
-        let better = if smallest {
-            spread(axis) < spread(best)
-        } else {
-            spread(axis) > spread(best)
-        };
-        if better {
-            best = axis;
-        }
-    }
-    best
-}
-
-/// The typical distance between neighbouring nodes of Γ3: the median length of the edges of its
-/// facets divided by the degree (P2 puts a node in the middle of every edge).
-fn contact_node_spacing<const D: usize>(space: &LagrangeSpace<D>) -> f64 {
-    let mesh = space.mesh();
-    let mut lengths = Vec::new();
-    for f in 0..mesh.num_facets() {
-        if mesh.facet_part(f) != BoundaryPart::Contact {
-            continue;
-        }
-        let vertices = mesh.facet(f);
-        for (i, &a) in vertices.iter().enumerate() {
-            for &b in &vertices[i + 1..] {
-                let (p, q) = (mesh.vertex(a), mesh.vertex(b));
-                lengths.push((0..D).map(|j| (p[j] - q[j]).powi(2)).sum::<f64>().sqrt());
-            }
-        }
-    }
-    if lengths.is_empty() {
-        return 0.0;
-    }
-    lengths.sort_by(f64::total_cmp);
-    lengths[lengths.len() / 2] / space.degree() as f64
-}
-
-/// `value` with four significant digits, for labels.
-fn significant(value: f64) -> String {
-    format!("{}", format!("{value:.3e}").parse::<f64>().unwrap_or(value))
-}
-
-/// The contact nodes whose history is recorded, in the order of their coordinate along Γ3.
-#[derive(Debug, Clone, PartialEq)]
-pub struct ContactLine {
-    /// Indices k into the contact nodes (`ContactNodes::nodes[k]`), sorted by `coordinates`.
-    pub indices: Vec<usize>,
-    /// Their coordinate s along Γ3.
-    pub coordinates: Vec<f64>,
-    /// The axis of s.
-    pub axis: usize,
-    /// What s is, for the picture, e.g. `x on Γ3 (y = 0.5)`.
-    pub description: String,
-}
-
-impl ContactLine {
-    /// The line of contact nodes of `contact`: all of them in 2D, those on the line nearest
-    /// the middle of the face in 3D (see the module documentation).
-    pub fn new<const D: usize>(space: &LagrangeSpace<D>, contact: &ContactNodes<D>) -> Self {
-        let points: Vec<[f64; D]> = contact.nodes.iter().map(|&a| space.node(a)).collect();
-        if points.is_empty() {
-            return Self {
-                indices: Vec::new(),
-                coordinates: Vec::new(),
-                axis: 0,
-                description: "Γ3 (no contact nodes)".into(),
-            };
-        }
-        let all: Vec<usize> = (0..D).collect();
-        let normal = axis_of_spread(&points, true, &all);
-        let in_plane: Vec<usize> = all.iter().copied().filter(|&i| i != normal).collect();
-        let axis = axis_of_spread(&points, false, &in_plane);
-        let mut description = format!("{} on Γ3", AXIS_NAMES[axis]);
-        let mut indices: Vec<usize> = (0..points.len()).collect();
-        if D == 3 {
-            let across = in_plane[0] + in_plane[1] - axis;
-            let (low, high) = points
-                .iter()
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |acc, p| {
-                    (acc.0.min(p[across]), acc.1.max(p[across]))
-                });
-            let middle = 0.5 * (low + high);
-            let nearest = points
-                .iter()
-                .map(|p| p[across])
-                .min_by(|a, b| (a - middle).abs().total_cmp(&(b - middle).abs()))
-                .unwrap_or(middle);
-            let half_width = 0.5 * contact_node_spacing(space);
-            indices.retain(|&k| (points[k][across] - nearest).abs() < half_width);
-            description = format!(
-                "{description} ({} = {} ± {})",
-                AXIS_NAMES[across],
-                significant(nearest),
-                significant(half_width)
-            );
-        }
-        indices.sort_by(|&a, &b| points[a][axis].total_cmp(&points[b][axis]));
-        let coordinates = indices.iter().map(|&k| points[k][axis]).collect();
-        Self {
-            indices,
-            coordinates,
-            axis,
-            description,
-        }
-    }
-
-    /// Rows of `contact_history.csv` of step n: status, p_ν, |v_τ| and the accumulated slip
-    /// of the nodes of the line (the slices are indexed by contact node).
-    pub fn csv_rows(
-        &self,
-        step: usize,
-        time: f64,
-        status: &[ContactStatus],
-        normal_pressure: &[f64],
-        slip_rate: &[f64],
-        accumulated_slip: &[f64],
-    ) -> String {
-        let mut rows = String::new();
-        for (&k, s) in self.indices.iter().zip(&self.coordinates) {
-            let code = match status[k] {
-                ContactStatus::Separated => 0,
-                ContactStatus::Stick => 1,
-                ContactStatus::Slip => 2,
-            };
-            rows.push_str(&format!(
-                "{step},{time},{s},{code},{},{},{}\n",
-                normal_pressure[k], slip_rate[k], accumulated_slip[k]
-            ));
-        }
-        rows
-    }
 }
 
 /// A row of `contact_history.csv`.
@@ -790,75 +642,6 @@ pub fn pressure_steps(records: &[ContactRecord], picture_steps: &[usize]) -> Vec
 #[cfg(test)]
 mod tests {
     use super::*;
-    use contact_damage::fem::mesh::{BoundaryPart::*, Mesh};
-    use std::sync::Arc;
-
-    /// The unit cube with Γ3 = {z = 0}, 8 cells per side, the vertices of the open face z = 0
-    /// moved within the face by up to a quarter cell (`jitter` = 0.25) or not at all: an
-    /// unstructured contact face on which no line of nodes is straight.
-    fn cube_with_jittered_contact_face(jitter: f64, degree: usize) -> LagrangeSpace<3> {
-        let cube = Mesh::box_mesh(
-            [0.0; 3],
-            [1.0; 3],
-            [8; 3],
-            [[Dirichlet, Neumann], [Neumann, Neumann], [Contact, Neumann]],
-        )
-        .unwrap();
-        let mut vertices = cube.vertices().to_vec();
-        for (v, x) in vertices.iter_mut().enumerate() {
-            let inside = x[0] > 0.0 && x[0] < 1.0 && x[1] > 0.0 && x[1] < 1.0;
-            if x[2] == 0.0 && inside {
-                x[0] += jitter / 8.0 * (1.7 * v as f64).sin();
-                x[1] += jitter / 8.0 * (2.3 * v as f64 + 0.4).cos();
-            }
-        }
-        let cells = (0..cube.num_cells())
-            .flat_map(|c| cube.cell(c).to_vec())
-            .collect();
-        let facets = (0..cube.num_facets())
-            .flat_map(|f| cube.facet(f).to_vec())
-            .collect();
-        let parts = (0..cube.num_facets()).map(|f| cube.facet_part(f)).collect();
-        let mesh = Mesh::new(vertices, cells, facets, parts).unwrap();
-        LagrangeSpace::new(Arc::new(mesh), degree).unwrap()
-    }
-
-    #[test]
-    fn contact_line_in_3d_is_a_grid_line_on_a_box_and_a_band_on_an_unstructured_face() {
-        for degree in [1, 2] {
-            // box mesh: one grid line across the middle, every contact node of it
-            let space = cube_with_jittered_contact_face(0.0, degree);
-            let contact = ContactNodes::new(&space).unwrap();
-            let line = ContactLine::new(&space, &contact);
-            let across = 1 - line.axis;
-            let at = space.node(contact.nodes[line.indices[0]])[across];
-            assert!((at - 0.5).abs() <= 1.0 / 16.0, "line at {at}");
-            let on_line = contact
-                .nodes
-                .iter()
-                .filter(|&&a| (space.node(a)[across] - at).abs() < 1e-12)
-                .count();
-            assert_eq!(line.indices.len(), on_line, "degree {degree}");
-            assert!(line
-                .indices
-                .iter()
-                .all(|&k| (space.node(contact.nodes[k])[across] - at).abs() < 1e-12));
-            // jittered face: a band with nodes spread along the whole face, at most a node
-            // spacing apart
-            let space = cube_with_jittered_contact_face(0.25, degree);
-            let contact = ContactNodes::new(&space).unwrap();
-            let line = ContactLine::new(&space, &contact);
-            let gaps = line.coordinates.windows(2).map(|w| w[1] - w[0]);
-            let spacing = 1.0 / (8 * degree) as f64;
-            assert!(
-                gaps.clone().all(|gap| gap <= 2.5 * spacing),
-                "{:?}",
-                line.coordinates
-            );
-            assert!(line.coordinates[0] <= 2.0 * spacing);
-            assert!(*line.coordinates.last().unwrap() >= 1.0 - 2.0 * spacing);
-        }
-    }
 
     #[test]
     fn damage_colors_run_from_violet_to_yellow_and_clamp() {

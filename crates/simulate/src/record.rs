@@ -3,12 +3,13 @@
 //! gathered in one function, so that the run loop and the per-step benchmark (`bench_step`)
 //! time the same work.
 
+use crate::contact_line::LineCoordinate;
 use crate::history::{
     contact_integrals, damage_integrals, tangential_speed, viscous_power, ContactStep,
     DomainQuadrature, HistoryRow, RunningSums,
 };
 use crate::problem::ProblemSetup;
-use crate::zone::{boundary_penetration, contact_force, contact_zone, ContactZone};
+use crate::zone::{boundary_penetration, contact_resultant, contact_zone, ContactZone};
 use contact_damage::model::contact::ContactNodes;
 use contact_damage::scheme::{ContactTreatment, Simulation, StepOutcome};
 
@@ -23,13 +24,14 @@ pub struct StepRecord {
 
 /// The step just done by `simulation` with outcome `outcome`, as a row of `history.csv`;
 /// adds the step's contributions to the running sums `sums`. `quadrature` is the cell rule of
-/// the Ω integrals and `axis` the axis of the contact zone's extent.
+/// the Ω integrals and `coordinate` the coordinate s of the contact zone's extent (that of the
+/// line of `contact_history.csv`).
 pub fn record_step<const D: usize>(
     setup: &ProblemSetup<D>,
     simulation: &Simulation<D>,
     outcome: &StepOutcome,
     quadrature: &DomainQuadrature<D>,
-    axis: usize,
+    coordinate: &LineCoordinate,
     sums: &mut RunningSums,
 ) -> StepRecord {
     let StepOutcome {
@@ -55,21 +57,24 @@ pub fn record_step<const D: usize>(
         time_step,
         sums,
     );
-    let (force, tangential_force) = contact_force(
+    let resultant = contact_resultant(
+        space,
         contact,
         normal_pressure,
         friction_bound,
         &velocity.multipliers,
+        &setup.moment_about,
     );
-    let zone = step_contact_zone(setup, simulation, contact, axis);
+    let zone = step_contact_zone(setup, simulation, contact, coordinate);
     let viscous_power = viscous_power(setup, space, quadrature, &state.velocity);
     sums.viscous_dissipation += time_step * viscous_power;
     let row = HistoryRow {
         step: state.step,
         time: state.time,
         normal_force: on_contact.normal_force,
-        tangential_force,
-        force: std::array::from_fn(|i| if i < D { force[i] } else { 0.0 }),
+        tangential_force: resultant.friction,
+        force: std::array::from_fn(|i| if i < D { resultant.force[i] } else { 0.0 }),
+        moment: resultant.moment,
         contact_zone: zone.measure,
         zone_bounds: [zone.lower, zone.upper],
         slip_zone: on_contact.slip_zone,
@@ -105,7 +110,7 @@ fn step_contact_zone<const D: usize>(
     setup: &ProblemSetup<D>,
     simulation: &Simulation<D>,
     contact: &ContactNodes<D>,
-    axis: usize,
+    coordinate: &LineCoordinate,
 ) -> ContactZone {
     let state = simulation.state();
     let space = simulation.space();
@@ -125,6 +130,6 @@ fn step_contact_zone<const D: usize>(
     contact_zone(
         space,
         &boundary_penetration(space, contact, &pressed, |x| gap(x, gap_time)),
-        axis,
+        coordinate,
     )
 }

@@ -4,7 +4,7 @@
 use crate::folder;
 use crate::folder::STATE_FILE;
 use crate::history::RunningSums;
-use crate::problem::ProblemSetup;
+use crate::problem::{ProblemSetup, ProfileFile};
 use contact_damage::scheme::{Simulation, State};
 use contact_input::{FileKind, InputError};
 use serde::{Deserialize, Serialize};
@@ -57,6 +57,32 @@ pub struct SavedState {
     /// run must keep it). Absent from the files of earlier versions: not checked then.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub output_every: Option<usize>,
+    /// The line of `contact_history.csv` and the point of the moment in `history.csv` of the
+    /// run (a resumed run must keep them). Absent from the files of earlier versions: not
+    /// checked then.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub contact_output: Option<ContactOutput>,
+}
+
+/// What decides the contact columns of the run's files: `output.profile` and
+/// `output.moment_about`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactOutput {
+    /// `output.profile` (None: the default line).
+    pub profile: Option<ProfileFile>,
+    /// `output.moment_about` (d coordinates).
+    pub moment_about: Vec<f64>,
+}
+
+impl ContactOutput {
+    /// Those of the problem `setup`.
+    pub fn of<const D: usize>(setup: &ProblemSetup<D>) -> Self {
+        Self {
+            profile: setup.file.output.profile.clone(),
+            moment_about: setup.moment_about.to_vec(),
+        }
+    }
 }
 
 /// Checks the values of a saved state as strictly as an input file: fields of the right
@@ -237,6 +263,34 @@ pub(crate) fn resume<const D: usize>(
                 state_path.display()
             ),
         ));
+    }
+    if let Some(saved_output) = &saved.contact_output {
+        let current = ContactOutput::of(setup);
+        let changed = if saved_output.profile != current.profile {
+            Some((
+                "output.profile",
+                "recorded its contact history on another line",
+            ))
+        } else if saved_output.moment_about != current.moment_about {
+            Some((
+                "output.moment_about",
+                "took the moment of the contact tractions about another point",
+            ))
+        } else {
+            None
+        };
+        if let Some((key, what)) = changed {
+            return Err(FileKind::Problem.error(
+                &setup.origin,
+                key,
+                format!(
+                    "changed since the run saved in {}, which {what}; a resumed run continues \
+                     the files of that run, so resume with the same value (or start afresh \
+                     with --overwrite)",
+                    state_path.display()
+                ),
+            ));
+        }
     }
     if saved.accumulated_slip.len() != contact_nodes {
         return Err(mismatch(

@@ -23,6 +23,7 @@
 //! run, `--overwrite` and `--resume` may do with the files already in the folder (only the
 //! names above are ours) is in [`crate::folder`].
 
+use crate::contact_line::ContactLine;
 use crate::folder;
 use crate::history::{
     history_header, truncate_history, DomainQuadrature, ForceCycle, HistoryRow, RunningSums,
@@ -30,8 +31,8 @@ use crate::history::{
 };
 use crate::pictures::{
     contact_history_svg, damage_picture_file, damage_svg, picture_steps, pressure_steps,
-    read_contact_history, truncate_contact_history, ContactLine, CONTACT_HISTORY_FILE,
-    CONTACT_HISTORY_HEADER, CONTACT_HISTORY_PICTURE,
+    read_contact_history, truncate_contact_history, CONTACT_HISTORY_FILE, CONTACT_HISTORY_HEADER,
+    CONTACT_HISTORY_PICTURE,
 };
 use crate::problem::ProblemSetup;
 use crate::record::{record_step, StepRecord};
@@ -45,7 +46,7 @@ use contact_damage::model::contact::ContactNodes;
 use contact_damage::scheme::stability::StepLimit;
 use contact_damage::scheme::{DamageEvolution, Simulation, State, StepOutcome};
 use contact_input::output::write_atomic;
-use contact_input::InputError;
+use contact_input::{FileKind, InputError};
 use std::fs::{File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -361,7 +362,12 @@ impl<'a, const D: usize> StepLoop<'a, D> {
             contact_history: dir.join(CONTACT_HISTORY_FILE),
             dir,
         };
-        let contact_line = ContactLine::new(&space, &contact);
+        let contact_line = match &setup.profile {
+            None => ContactLine::new(&space, &contact),
+            Some(segment) => ContactLine::along(&space, &contact, segment).map_err(|message| {
+                FileKind::Problem.error(&setup.origin, "output.profile", message)
+            })?,
+        };
         let pictures = picture_steps(&setup.pictures, simulation.time_step(), steps);
         let (progress, step_limit) =
             prepare_folder(setup, options, simulation, &files, &contact_line)?;
@@ -434,7 +440,7 @@ impl<'a, const D: usize> StepLoop<'a, D> {
             simulation,
             outcome,
             &self.quadrature,
-            self.contact_line.axis,
+            &self.contact_line.coordinate,
             &mut progress.sums,
         );
         let StepOutcome {

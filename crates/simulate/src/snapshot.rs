@@ -4,7 +4,7 @@
 use crate::folder::STATE_FILE;
 use crate::history::RunningSums;
 use crate::problem::ProblemSetup;
-use crate::resume::SavedState;
+use crate::resume::{ContactOutput, SavedState};
 use contact_damage::fem::mesh::BoundaryPart;
 use contact_damage::fem::space::{strain, LagrangeSpace, Tabulation};
 use contact_damage::io::vtk::{
@@ -213,6 +213,7 @@ pub(crate) fn save_step<const D: usize>(
             viscous_dissipation: sums.viscous_dissipation,
             fingerprint: setup.fingerprint.clone(),
             output_every: Some(setup.every),
+            contact_output: Some(ContactOutput::of(setup)),
         },
     )?;
     Ok(())

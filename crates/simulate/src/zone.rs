@@ -8,16 +8,19 @@
 //! (2D), and on a P2 triangle (3D) linearly through its edge midpoints, the only nodes of a
 //! quadratic triangle with contact weight — and the zone is the part of Γ3 where that
 //! interpolant is > 0, each (sub-)facet clipped at its zero crossing. Its measure (a length
-//! in 2D, an area in 3D) and its extent along the axis of Γ3's longest spread (the axis of
-//! `contact_history.csv`) are reported. r at a node uses the node's frame normal ν_a at contact
+//! in 2D, an area in 3D) and its extent in the coordinate s of the line of
+//! `contact_history.csv` ([`crate::contact_line`]) are reported. r at a node uses the node's frame normal ν_a at contact
 //! nodes and the facet normal elsewhere (nodes of Γ3 that carry no contact unknowns: on Γ1, or
 //! of zero weight).
 //!
 //! **Force.** With the nodal contact rule the force of the foundation on the body is
 //! F = Σ_a ω_a (−p_ν(a) ν_a − p_τ(a) R_a (0, λ_a)): the normal pressure pushes the body out of the
 //! foundation and the friction traction −p_τ λ_a opposes the slip (the multipliers λ_a of
-//! (5.1) in the tangent frame R_a of the node).
+//! (5.1) in the tangent frame R_a of the node). Its moment about a point c is
+//! M = Σ_a (x_a − c) × f_a, f_a the nodal force of node a in that sum and x_a its position in
+//! the reference configuration (small displacements); in 2D only its z-component is nonzero.
 
+use crate::contact_line::LineCoordinate;
 use contact_damage::fem::mesh::BoundaryPart;
 use contact_damage::fem::space::LagrangeSpace;
 use contact_damage::model::contact::ContactNodes;
@@ -54,9 +57,9 @@ fn corner_values_from_midpoints(values: [f64; 6]) -> [f64; 3] {
 pub struct ContactZone {
     /// Its measure (length in 2D, area in 3D).
     pub measure: f64,
-    /// Smallest coordinate along `axis` of a point in it (NaN when the zone is empty).
+    /// Smallest coordinate s of a point in it (NaN when the zone is empty).
     pub lower: f64,
-    /// Largest coordinate along `axis` (NaN when empty).
+    /// Largest coordinate s (NaN when empty).
     pub upper: f64,
 }
 
@@ -92,11 +95,11 @@ pub fn boundary_penetration<const D: usize>(
 }
 
 /// The contact zone {r > 0} of the interpolated penetration `penetration` (nodal, as from
-/// [`boundary_penetration`]), with its extent along `axis`.
+/// [`boundary_penetration`]), with its extent in the coordinate `coordinate`.
 pub fn contact_zone<const D: usize>(
     space: &LagrangeSpace<D>,
     penetration: &[f64],
-    axis: usize,
+    coordinate: &LineCoordinate,
 ) -> ContactZone {
     let mesh = space.mesh();
     let mut zone = ContactZone {
@@ -127,8 +130,9 @@ pub fn contact_zone<const D: usize>(
             }
             zone.measure += polygon_measure::<D>(&clipped);
             for point in &clipped {
-                zone.lower = zone.lower.min(point[axis]);
-                zone.upper = zone.upper.max(point[axis]);
+                let s = coordinate.of(point.as_slice());
+                zone.lower = zone.lower.min(s);
+                zone.upper = zone.upper.max(s);
             }
         }
     }
@@ -183,25 +187,58 @@ fn polygon_measure<const D: usize>(points: &[SVector<f64, D>]) -> f64 {
     0.5 * twice_area.norm()
 }
 
-/// The force of the foundation on the body, F = Σ_a ω_a (−p_ν(a) ν_a − p_τ(a) R_a (0, λ_a))
-/// (Cartesian), and the magnitude of its friction part.
-pub fn contact_force<const D: usize>(
+/// The resultant of the contact tractions on the body.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ContactResultant<const D: usize> {
+    /// F = Σ_a ω_a (−p_ν(a) ν_a − p_τ(a) R_a (0, λ_a)) (Cartesian).
+    pub force: SVector<f64, D>,
+    /// The magnitude of its friction part |Σ_a ω_a p_τ(a) R_a (0, λ_a)|.
+    pub friction: f64,
+    /// M = Σ_a (x_a − c) × f_a about the point c (x, y, z; only z in 2D).
+    pub moment: [f64; 3],
+}
+
+/// The force of the foundation on the body, the magnitude of its friction part, and its
+/// moment about `moment_about` (see the module documentation).
+pub fn contact_resultant<const D: usize>(
+    space: &LagrangeSpace<D>,
     contact: &ContactNodes<D>,
     normal_pressure: &[f64],
     friction_bound: &[f64],
     multipliers: &[f64],
-) -> (SVector<f64, D>, f64) {
+    moment_about: &[f64; D],
+) -> ContactResultant<D> {
     let mut normal_part = SVector::<f64, D>::zeros();
     let mut friction_part = SVector::<f64, D>::zeros();
+    let mut moment = SVector::<f64, 3>::zeros();
     for (k, frame) in contact.frames.iter().enumerate() {
         let weight = contact.weights[k];
-        normal_part -= frame.column(0) * (weight * normal_pressure[k]);
+        let normal_force = frame.column(0) * (weight * normal_pressure[k]);
+        normal_part -= normal_force;
+        let mut friction_force = SVector::<f64, D>::zeros();
         for j in 1..D {
-            friction_part -=
+            let term =
                 frame.column(j) * (weight * friction_bound[k] * multipliers[k * (D - 1) + j - 1]);
+            // accumulated term by term into the resultant, as the sum was always taken
+            friction_part -= term;
+            friction_force -= term;
         }
+        let position = space.node(contact.nodes[k]);
+        let lever = embed::<D>(std::array::from_fn(|i| position[i] - moment_about[i]));
+        moment += lever.cross(&embed::<D>(std::array::from_fn(|i| {
+            friction_force[i] - normal_force[i]
+        })));
     }
-    (normal_part + friction_part, friction_part.norm())
+    ContactResultant {
+        force: normal_part + friction_part,
+        friction: friction_part.norm(),
+        moment: moment.into(),
+    }
+}
+
+/// A vector of dimension D as a 3-vector (z = 0 in 2D).
+fn embed<const D: usize>(vector: [f64; D]) -> SVector<f64, 3> {
+    SVector::<f64, 3>::from_fn(|i, _| if i < D { vector[i] } else { 0.0 })
 }
 
 /// The peak p0 and the half-width a of the ellipse p0 √(1 − x²/a²) through nodal pressures
@@ -249,7 +286,7 @@ mod tests {
             let contact = ContactNodes::new(&space).unwrap();
             let displacement = vec![0.0; space.num_nodes() * 2];
             let r = boundary_penetration(&space, &contact, &displacement, |x| x[0] - 0.4);
-            let zone = contact_zone(&space, &r, 0);
+            let zone = contact_zone(&space, &r, &LineCoordinate::Axis(0));
             // the clamped corner x = 0 is on Γ3 too: the zone is [0, 0.4]
             assert!((zone.measure - 0.4).abs() < 1e-14, "{zone:?}");
             assert!(zone.lower.abs() < 1e-14 && (zone.upper - 0.4).abs() < 1e-14);
@@ -270,7 +307,7 @@ mod tests {
                 *value = if node < vertices { 0.1 } else { -0.1 };
             }
         }
-        let zone = contact_zone(&space, &r, 0);
+        let zone = contact_zone(&space, &r, &LineCoordinate::Axis(0));
         // 3 cells of h = 1/3: 6 half-sub-segments of length h/4
         assert!(
             (zone.measure - 6.0 * (1.0 / 12.0)).abs() < 1e-14,
@@ -294,7 +331,7 @@ mod tests {
             let contact = ContactNodes::new(&space).unwrap();
             let displacement = vec![0.0; space.num_nodes() * 3];
             let r = boundary_penetration(&space, &contact, &displacement, |x| x[0] - 0.3);
-            let zone = contact_zone(&space, &r, 0);
+            let zone = contact_zone(&space, &r, &LineCoordinate::Axis(0));
             assert!((zone.measure - 0.3).abs() < 1e-14, "{zone:?}");
             assert!(zone.lower.abs() < 1e-14 && (zone.upper - 0.3).abs() < 1e-14);
         }
@@ -324,7 +361,7 @@ mod tests {
                 sign = -sign;
             }
         }
-        let zone = contact_zone(&space, &r, 0);
+        let zone = contact_zone(&space, &r, &LineCoordinate::Axis(0));
         assert!((zone.measure - 0.3).abs() < 1e-14, "{zone:?}");
         assert!(zone.lower.abs() < 1e-14 && (zone.upper - 0.3).abs() < 1e-14);
     }
@@ -367,7 +404,7 @@ mod tests {
         let contact = ContactNodes::new(&space).unwrap();
         let displacement = vec![0.0; space.num_nodes() * 2];
         let r = boundary_penetration(&space, &contact, &displacement, |_| 0.1);
-        let zone = contact_zone(&space, &r, 0);
+        let zone = contact_zone(&space, &r, &LineCoordinate::Axis(0));
         assert_eq!(zone.measure, 0.0);
         assert!(zone.lower.is_nan() && zone.upper.is_nan());
     }
@@ -383,10 +420,72 @@ mod tests {
         let pressure = vec![2.0; count];
         let bound = vec![0.5; count];
         let multipliers = vec![1.0; count];
-        let (force, friction) = contact_force(&contact, &pressure, &bound, &multipliers);
+        let resultant =
+            contact_resultant(&space, &contact, &pressure, &bound, &multipliers, &[0.0; 2]);
         let tangent = contact.frames[0].column(1).into_owned();
         let expected = SVector::<f64, 2>::new(0.0, 2.0 * total) - tangent * (0.5 * total);
+        let force = resultant.force;
         assert!((force - expected).norm() < 1e-14, "{force} vs {expected}");
-        assert!((friction - 0.5 * total).abs() < 1e-14);
+        assert!((resultant.friction - 0.5 * total).abs() < 1e-14);
+    }
+
+    #[test]
+    fn contact_moment_is_the_moment_of_the_nodal_forces() {
+        // Γ3 = {z = 0} of the unit cube, outward normal −e_z, a uniform pressure p_ν = 1: the
+        // force (0, 0, 1) acts at the centre of the face, so its moment about the origin is
+        // ∫ x × (0, 0, 1) = (∫ y, −∫ x, 0) = (1/2, −1/2, 0) and about the centre zero, exactly
+        // for the nodal rule (it integrates linear functions exactly at P1 and P2). Any other
+        // point c' moves the moment by (c − c') × F, friction included.
+        let mesh = Mesh::box_mesh(
+            [0.0; 3],
+            [1.0; 3],
+            [4, 3, 2],
+            [[Neumann, Neumann], [Neumann, Neumann], [Contact, Dirichlet]],
+        )
+        .unwrap();
+        for degree in [1, 2] {
+            let space = LagrangeSpace::new(Arc::new(mesh.clone()), degree).unwrap();
+            let contact = ContactNodes::new(&space).unwrap();
+            let pressure = vec![1.0; contact.len()];
+            let none = vec![0.0; contact.len()];
+            let centre = [0.5, 0.5, 0.0];
+            let multipliers = vec![0.0; 2 * contact.len()];
+            for (point, expected) in [([0.0; 3], [0.5, -0.5, 0.0]), (centre, [0.0; 3])] {
+                let pressed =
+                    contact_resultant(&space, &contact, &pressure, &none, &multipliers, &point);
+                for (moment, expected) in pressed.moment.iter().zip(expected) {
+                    assert!(
+                        (moment - expected).abs() < 1e-14,
+                        "degree {degree}: {:?}",
+                        pressed.moment
+                    );
+                }
+            }
+            let pressed =
+                contact_resultant(&space, &contact, &pressure, &none, &multipliers, &centre);
+            assert!((pressed.force[2] - 1.0).abs() < 1e-14);
+            // with friction: the change of point is (c − c') × F
+            let bound = vec![0.3; contact.len()];
+            // λ_1 = x + y: a friction traction that grows across the face, which turns the body
+            let multipliers: Vec<f64> = contact
+                .nodes
+                .iter()
+                .flat_map(|&a| [space.node(a)[0] + space.node(a)[1], 0.2])
+                .collect();
+            let other = [0.1, -0.4, 0.7];
+            let at_centre =
+                contact_resultant(&space, &contact, &pressure, &bound, &multipliers, &centre);
+            let at_other =
+                contact_resultant(&space, &contact, &pressure, &bound, &multipliers, &other);
+            let shift = SVector::<f64, 3>::from(std::array::from_fn(|i| centre[i] - other[i]))
+                .cross(&at_centre.force);
+            for i in 0..3 {
+                assert!(
+                    (at_other.moment[i] - at_centre.moment[i] - shift[i]).abs() < 1e-14,
+                    "degree {degree}"
+                );
+            }
+            assert!(at_centre.moment[2].abs() > 1e-3, "friction turns the body");
+        }
     }
 }

@@ -9,8 +9,9 @@ use crate::common;
 use common::{checked_run, expected_contact_nodes, facets_of, history_value, scratch};
 use contact_damage::fem::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::Simulation;
+use simulate::contact_line::{ContactLine, LineCoordinate};
 use simulate::history::HISTORY_FILE;
-use simulate::pictures::{ContactLine, CONTACT_HISTORY_FILE};
+use simulate::pictures::CONTACT_HISTORY_FILE;
 use simulate::problem::ProblemSetup;
 use simulate::run::RunOptions;
 use std::f64::consts::PI;
@@ -178,7 +179,7 @@ fn contact_line_is_the_structured_midline_of_the_contact_face() {
     let simulation = Simulation::new(setup.problem.clone()).unwrap();
     let line = ContactLine::new(simulation.space(), simulation.contact());
     // the nodes of y = 0.5 but the clamped end x = 0, evenly spaced along x
-    assert_eq!(line.axis, 0);
+    assert_eq!(line.coordinate, LineCoordinate::Axis(0));
     assert_eq!(line.indices.len(), MIDLINE_INTERVALS);
     let spacing = LENGTH / MIDLINE_INTERVALS as f64;
     for (j, s) in line.coordinates.iter().enumerate() {

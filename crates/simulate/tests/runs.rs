@@ -1152,3 +1152,182 @@ fn resume_refuses_another_output_every_naming_the_key() {
     );
     simulate::run_file(&problem, &resume).unwrap();
 }
+
+/// A radius of the indenter's contact disc as the profile line: the quarter-block indenter
+/// (P2, symmetry planes x = 0 and y = 0) with `output.profile` along the diagonal from the
+/// centre of the disc, across the grid lines. The recorded nodes run from the centre outwards,
+/// the pressure is largest near the centre and vanishes beyond the zone, whose extent
+/// `zone_max` is now measured along the diagonal. The moment about the centre of the disc is
+/// moment_x = ∫ y p = −moment_y (the quarter is symmetric in x and y), with moment_z = 0; its
+/// lever arm moment_x / F_z, the centroid of the pressure on the quarter disc of radius a, lies
+/// between the two limits of the block: a thin elastic layer, where p follows the penetration
+/// (1 − r²/a², centroid 16a/15π ≈ 0.340 a), and a half-space (Hertz, p0 √(1 − r²/a²),
+/// centroid 3a/8); the block, as thick as its width and four times the radius, sits between
+/// them. 5 % of margin on either side for a, which spans about 2.5 cells.
+#[test]
+fn radial_profile_and_moment_of_the_indenter_follow_the_contact_disc() {
+    let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/indenter_3d.toml");
+    let dir = scratch("indenter-profile");
+    let text = std::fs::read_to_string(&example).unwrap().replace(
+        "pictures = []",
+        "pictures = []\nprofile = { from = [0, 0, 0], to = [1, 1, 0] }\nmoment_about = [0, 0, 0]",
+    );
+    let problem = dir.join("indenter_profile.toml");
+    std::fs::write(&problem, text).unwrap();
+    let setup = ProblemSetup::<3>::from_path(&problem).unwrap();
+    let out = dir.join("out");
+    let history = common::checked_run(&setup, &out, 1);
+    let value = |name: &str| common::history_value(&history, 1, name);
+    let radius = value("zone_max");
+    let normal_force = value("force_z");
+    assert!(
+        radius > 0.1 && normal_force > 0.0,
+        "{radius} {normal_force}"
+    );
+    // a zone symmetric about the diagonal: its extent along it starts at the centre
+    assert!(value("zone_min").abs() < 1e-12, "{}", value("zone_min"));
+    let (moment_x, moment_y) = (value("moment_x"), value("moment_y"));
+    let lever = moment_x / normal_force / radius;
+    let (layer, half_space) = (16.0 / (15.0 * std::f64::consts::PI), 3.0 / 8.0);
+    assert!(
+        lever > 0.95 * layer && lever < 1.05 * half_space,
+        "lever arm {lever} a, outside [{layer}, {half_space}] a"
+    );
+    assert!(
+        (moment_x + moment_y).abs() < 1e-9 * moment_x.abs(),
+        "{moment_x} {moment_y}"
+    );
+    assert!(value("moment_z").abs() < 1e-12 * moment_x.abs());
+
+    let rows = std::fs::read_to_string(out.join("contact_history.csv")).unwrap();
+    let profile: Vec<(f64, f64)> = rows
+        .lines()
+        .skip(1)
+        .map(|row| {
+            let fields: Vec<f64> = row.split(',').map(|f| f.parse().unwrap()).collect();
+            (fields[2], fields[4])
+        })
+        .collect();
+    // the contact nodes of the diagonal from the centre to the corner, in order of s: the
+    // midpoints of the 12 diagonal edges (the vertices of a quadratic face carry no contact
+    // weight, hence no contact unknowns)
+    assert!(profile.windows(2).all(|w| w[0].0 <= w[1].0));
+    let diagonal = 2.0f64.sqrt();
+    let spacing = diagonal / 24.0;
+    assert!(profile.len() >= 12, "{profile:?}");
+    assert!(profile[0].0 <= spacing + 1e-12);
+    assert!(profile[profile.len() - 1].0 >= diagonal - spacing - 1e-12);
+    let peak = profile.iter().map(|p| p.1).fold(0.0, f64::max);
+    assert!(peak > 0.0 && profile[0].1 == peak, "{profile:?}");
+    for &(s, pressure) in &profile {
+        if s > radius + spacing {
+            assert_eq!(
+                pressure, 0.0,
+                "pressure {pressure} at s = {s} beyond the zone"
+            );
+        }
+    }
+    let picture = std::fs::read_to_string(out.join("contact_history.svg")).unwrap();
+    assert!(picture.contains("from (0, 0, 0) towards (1, 1, 0)"));
+}
+
+/// A profile segment that no contact node lies near, a degenerate one and a point with the
+/// wrong number of coordinates are refused naming the key, before any output is written.
+#[test]
+fn profile_and_moment_point_are_checked_before_the_first_step() {
+    let dir = scratch("simulate-profile-errors");
+    let problem = tiny_example(&dir);
+    let text = std::fs::read_to_string(&problem).unwrap();
+    for (output, key, message) in [
+        (
+            "profile = { from = [0, 0.5], to = [2, 0.5] }",
+            "output.profile",
+            "no contact node of Γ3 lies within",
+        ),
+        (
+            "profile = { from = [1, 0], to = [1, 0] }",
+            "output.profile.to",
+            "must differ from `from`",
+        ),
+        (
+            "profile = { from = [0, 0], to = [2, 0], width = -1 }",
+            "output.profile.width",
+            "positive",
+        ),
+        (
+            "moment_about = [1, 0, 0]",
+            "output.moment_about",
+            "must have 2 coordinates",
+        ),
+    ] {
+        let bad = dir.join("bad.toml");
+        std::fs::write(
+            &bad,
+            text.replace("every = 4", &format!("every = 4\n{output}")),
+        )
+        .unwrap();
+        let out = dir.join("out");
+        let error = simulate::run_file(&bad, &quiet(&out))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("bad.toml")
+                && error.contains(&format!("key `{key}`"))
+                && error.contains(message),
+            "{output}: {error}"
+        );
+        assert!(!out.join("history.csv").exists(), "{output}");
+    }
+}
+
+/// A resumed run keeps the profile line and the moment point of the run it continues: another
+/// value of either is refused naming the key; the same values resume.
+#[test]
+fn resume_refuses_another_profile_or_moment_point_naming_the_key() {
+    let dir = scratch("simulate-resume-profile");
+    let tiny = tiny_example(&dir);
+    let text = std::fs::read_to_string(&tiny).unwrap();
+    let with = |output: &str, name: &str| {
+        let path = dir.join(name);
+        std::fs::write(
+            &path,
+            text.replace("every = 4", &format!("every = 4\n{output}")),
+        )
+        .unwrap();
+        path
+    };
+    let problem = with(
+        "profile = { from = [0, 0], to = [2, 0] }\nmoment_about = [1, 0]",
+        "profile.toml",
+    );
+    let out = dir.join("out");
+    simulate::run_file(
+        &problem,
+        &RunOptions {
+            until_step: Some(3),
+            ..quiet(&out)
+        },
+    )
+    .unwrap();
+    let resume = RunOptions {
+        resume: true,
+        ..quiet(&out)
+    };
+    for (output, key) in [
+        ("moment_about = [1, 0]", "output.profile"),
+        (
+            "profile = { from = [0, 0], to = [2, 0] }\nmoment_about = [0, 0]",
+            "output.moment_about",
+        ),
+    ] {
+        let changed = with(output, "changed.toml");
+        let error = simulate::run_file(&changed, &resume)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            error.contains("changed.toml") && error.contains(&format!("key `{key}`")),
+            "{output}: {error}"
+        );
+    }
+    simulate::run_file(&problem, &resume).unwrap();
+}

@@ -163,6 +163,28 @@ pub struct OutputFile {
     /// Encoding of the arrays of the VTU files: `"binary"` (default) or `"ascii"`.
     #[serde(default)]
     pub vtu: Option<String>,
+    /// The line of Γ3 recorded in `contact_history.csv`; default a line across the middle of
+    /// Γ3 ([`crate::contact_line`]).
+    #[serde(default)]
+    pub profile: Option<ProfileFile>,
+    /// The point about which `history.csv` takes the moment of the contact tractions (default
+    /// the origin).
+    #[serde(default)]
+    pub moment_about: Option<Vec<f64>>,
+}
+
+/// `output.profile`: the contact nodes within `width` of the segment from `from` to `to`.
+#[derive(Debug, Clone, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProfileFile {
+    /// Start of the segment (d coordinates), where s = 0.
+    pub from: Vec<f64>,
+    /// End of the segment (d coordinates).
+    pub to: Vec<f64>,
+    /// Largest distance of a recorded node from the segment (default half a node spacing of
+    /// Γ3).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub width: Option<f64>,
 }
 
 /// `[solver]`: tolerances and iteration limits; missing entries keep the solver's defaults
@@ -285,6 +307,8 @@ impl Default for OutputFile {
             dir: None,
             pictures: None,
             vtu: None,
+            profile: None,
+            moment_about: None,
         }
     }
 }

@@ -36,6 +36,10 @@
 //! pictures = [2.5, 5.0]    # times of the damage pictures (SVG), default [T/2, T]
 //! vtu = "binary"           # arrays of the VTU files: "binary" (base64, ParaView's default) or
 //!                          # "ascii" (decimal text); both read back bitwise
+//! profile = { from = [0, 0], to = [4, 0], width = 0.01 }  # the line of Γ3 recorded in
+//!                          # contact_history.csv: the contact nodes within `width` (default
+//!                          # half a node spacing) of the segment; default a line across Γ3
+//! moment_about = [2, 0]    # point of the moment of the contact tractions (default the origin)
 //! [scheme]
 //! contact = "explicit"     # p_ν at u_{n−1} as in (5.1); "implicit": at u_{n−1} + k v_n (stiff
 //!                          # contact at any step; the friction bound stays at u_{n−1})
@@ -81,10 +85,11 @@ mod validate;
 pub use fields::{LoadCurve, FIELD_VARIABLES, STATIC_VARIABLES, TRACTION_VARIABLES};
 pub use file::{
     parse_problem_file, read_problem_file, BoxFile, DisplacementFile, GmshFile, LoadsFile,
-    MeshFile, OutputFile, ProblemFile, SolverFile, LOOSEST_TOLERANCE, MAX_REFINEMENTS,
+    MeshFile, OutputFile, ProblemFile, ProfileFile, SolverFile, LOOSEST_TOLERANCE, MAX_REFINEMENTS,
 };
 pub use fingerprint::mesh_fingerprint;
 
+use crate::contact_line::ProfileSegment;
 use crate::watch::LoadWatch;
 use contact_damage::algebra::linalg::FactorKind;
 use contact_damage::io::vtk::VtuEncoding;
@@ -113,6 +118,10 @@ pub struct ProblemSetup<const D: usize> {
     pub pictures: Vec<f64>,
     /// Encoding of the arrays of the VTU files.
     pub vtu: VtuEncoding,
+    /// The profile line of `output.profile` (None: the default line of Γ3).
+    pub profile: Option<ProfileSegment<D>>,
+    /// The point about which the moment of the contact tractions is taken.
+    pub moment_about: [f64; D],
     /// What a saved state must match to be resumed with this problem: `constants`, `laws`,
     /// `loads` (as canonical JSON) and `mesh` (SHA-256 of the vertices, cells and boundary
     /// parts of the built mesh, so that a changed Gmsh file is caught too). `dim`, `degree`,
@@ -140,6 +149,8 @@ impl<const D: usize> ProblemSetup<D> {
         validate::check_sizes::<D>(&file, origin)?;
         let pictures = validate::picture_times(&file, origin)?;
         let vtu = validate::vtu_encoding(&file, origin)?;
+        let profile = validate::profile_segment::<D>(&file, origin)?;
+        let moment_about = validate::moment_point::<D>(&file, origin)?;
         let name = validate::problem_name(&file, path, origin)?;
         let (mesh, part_facets) = mesh::build_mesh::<D>(&file, path, origin)?;
         validate::check_contact_face(&file, &mesh, origin)?;
@@ -197,6 +208,8 @@ impl<const D: usize> ProblemSetup<D> {
             output_dir,
             pictures,
             vtu,
+            profile,
+            moment_about,
             fingerprint,
             file,
             load_watch,

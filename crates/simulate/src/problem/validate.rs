@@ -2,6 +2,7 @@
 //! name and `[output]` — and of the contact face Γ3 a 3D problem needs.
 
 use super::file::{problem_error, ProblemFile};
+use crate::contact_line::ProfileSegment;
 use contact_damage::fem::mesh::{BoundaryPart, Mesh};
 use contact_damage::io::vtk::VtuEncoding;
 use contact_input::InputError;
@@ -82,6 +83,75 @@ pub(super) fn vtu_encoding(file: &ProblemFile, origin: &str) -> Result<VtuEncodi
         }
     };
     Ok(vtu)
+}
+
+/// A point of `output` (`key`): d finite coordinates.
+fn output_point<const D: usize>(
+    values: &[f64],
+    key: &str,
+    origin: &str,
+) -> Result<[f64; D], InputError> {
+    if values.len() != D {
+        return Err(problem_error(
+            origin,
+            key,
+            format!(
+                "must have {D} coordinates (dim = {D}), got {}",
+                values.len()
+            ),
+        ));
+    }
+    if let Some(bad) = values.iter().find(|x| !x.is_finite()) {
+        return Err(problem_error(
+            origin,
+            key,
+            format!("every coordinate must be finite, got {bad}"),
+        ));
+    }
+    Ok(std::array::from_fn(|i| values[i]))
+}
+
+/// The profile line of `output.profile`, if any: two distinct points of d coordinates and a
+/// positive width. Whether it meets Γ3 is checked on the mesh, before the first step.
+pub(super) fn profile_segment<const D: usize>(
+    file: &ProblemFile,
+    origin: &str,
+) -> Result<Option<ProfileSegment<D>>, InputError> {
+    let Some(profile) = &file.output.profile else {
+        return Ok(None);
+    };
+    let from = output_point::<D>(&profile.from, "output.profile.from", origin)?;
+    let to = output_point::<D>(&profile.to, "output.profile.to", origin)?;
+    if from == to {
+        return Err(problem_error(
+            origin,
+            "output.profile.to",
+            "must differ from `from`: the segment gives the direction of s",
+        ));
+    }
+    if let Some(width) = profile.width.filter(|w| !(w.is_finite() && *w > 0.0)) {
+        return Err(problem_error(
+            origin,
+            "output.profile.width",
+            format!("must be a positive number, got {width}"),
+        ));
+    }
+    Ok(Some(ProfileSegment {
+        from,
+        to,
+        width: profile.width,
+    }))
+}
+
+/// The point of `output.moment_about` (default the origin).
+pub(super) fn moment_point<const D: usize>(
+    file: &ProblemFile,
+    origin: &str,
+) -> Result<[f64; D], InputError> {
+    match &file.output.moment_about {
+        None => Ok([0.0; D]),
+        Some(point) => output_point::<D>(point, "output.moment_about", origin),
+    }
 }
 
 /// The problem name (`name`, default the stem of the file at `path`), which must name a folder.
