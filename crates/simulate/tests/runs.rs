@@ -1169,9 +1169,10 @@ fn radial_profile_and_moment_of_the_indenter_follow_the_contact_disc() {
     let example = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/indenter_3d.toml");
     let dir = scratch("indenter-profile");
     let text = std::fs::read_to_string(&example).unwrap().replace(
-        "pictures = []",
-        "pictures = []\nprofile = { from = [0, 0, 0], to = [1, 1, 0] }\nmoment_about = [0, 0, 0]",
+        "profile = { from = [0, 0, 0], to = [1, 0, 0] }",
+        "profile = { from = [0, 0, 0], to = [1, 1, 0] }\nmoment_about = [0, 0, 0]",
     );
+    assert!(text.contains("to = [1, 1, 0]"));
     let problem = dir.join("indenter_profile.toml");
     std::fs::write(&problem, text).unwrap();
     let setup = ProblemSetup::<3>::from_path(&problem).unwrap();
