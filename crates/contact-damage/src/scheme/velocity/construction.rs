@@ -4,7 +4,7 @@
 
 use super::operator::VelocityOperator;
 use crate::algebra::linalg::{CholeskySolver, FactorKind, SparsityPattern};
-use crate::algebra::ordering::{fill_reducing_node_order, NodeGraph};
+use crate::algebra::ordering::{fill_reducing_node_order, minimum_degree, NodeGraph};
 use crate::error::{Error, Result};
 use crate::fem::mesh::BoundaryPart;
 use crate::fem::quadrature::QuadratureRule;
@@ -176,14 +176,21 @@ impl<const D: usize> VelocityOperator<D> {
         Ok(())
     }
 
-    /// The symbolic analysis: a fill-reducing node order with the contact unknowns last.
+    /// The symbolic analysis: a fill-reducing node order with the contact unknowns last. In 3D
+    /// both geometric nested dissection and minimum degree are analysed and the order of the
+    /// smaller factor is kept: dissection wins on the structured box meshes, minimum degree on
+    /// graded unstructured ones (a Gmsh block graded towards its contact, 31 k P2 unknowns:
+    /// 3.3e7 factor entries against 4.7e7, with the contact unknowns last).
     fn analyse(&mut self) -> Result<()> {
         let space = &self.space;
         let graph = NodeGraph::from_cells(
             space.num_nodes(),
             (0..space.mesh().num_cells()).map(|c| space.cell_nodes(c)),
         );
-        let node_order = fill_reducing_node_order(space.nodes(), &graph)?;
+        let mut node_orders = vec![fill_reducing_node_order(space.nodes(), &graph)?];
+        if D == 3 {
+            node_orders.push(minimum_degree(&graph)?);
+        }
         let normals: Vec<usize> = if self.normals_last {
             self.contact.nodes.iter().map(|&node| node * D).collect()
         } else {
@@ -193,25 +200,37 @@ impl<const D: usize> VelocityOperator<D> {
         for &dof in self.tangential.iter().chain(&normals) {
             is_trailing[dof] = true;
         }
-        let ordering: Vec<usize> = node_order
-            .iter()
-            .flat_map(|&node| (0..D).map(move |i| node * D + i))
-            .filter(|&dof| !is_trailing[dof])
-            .chain(normals.iter().copied())
-            .chain(self.tangential.iter().copied())
-            .collect();
         // the contact block of a Newton tangent needs the supernodal factor's trailing block
         let kind = if self.normals_last {
             FactorKind::Supernodal
         } else {
             FactorKind::Auto
         };
-        self.solver = CholeskySolver::analyse_with_ordering_as(
-            &self.matrix,
-            &ordering,
-            kind,
-            "velocity operator (5.1)",
-        )?;
+        let mut best: Option<CholeskySolver> = None;
+        for node_order in &node_orders {
+            let ordering: Vec<usize> = node_order
+                .iter()
+                .flat_map(|&node| (0..D).map(move |i| node * D + i))
+                .filter(|&dof| !is_trailing[dof])
+                .chain(normals.iter().copied())
+                .chain(self.tangential.iter().copied())
+                .collect();
+            let solver = CholeskySolver::analyse_with_ordering_as(
+                &self.matrix,
+                &ordering,
+                kind,
+                "velocity operator (5.1)",
+            )?;
+            if best
+                .as_ref()
+                .is_none_or(|kept| solver.factor_len() < kept.factor_len())
+            {
+                best = Some(solver);
+            }
+        }
+        if let Some(solver) = best {
+            self.solver = solver;
+        }
         self.trailing = None;
         Ok(())
     }
