@@ -5,13 +5,18 @@
 //!   and the peak pressure p0 against a = √(4PR/(πE*)), p0 = 2P/(πa) for the measured load P,
 //!   over meshes and foundation stiffnesses c_ν; and the pressure profile p0 √(1 − x²/a²)
 //!   against the computed nodal pressures;
+//! - `hertz3d`: Hertz contact of a sphere on a flat in 3D — the face of an elastic block pressed
+//!   onto a rigid paraboloid of radius R, frictionless, by a prescribed approach (a quarter of
+//!   the block, its symmetry planes cutting the contact disc): the contact radius a and the peak
+//!   pressure p0 against a = (3PR/4E*)^(1/3), p0 = 3P/(2πa²) for the measured load P, over
+//!   graded Gmsh meshes and c_ν, with the Newton iterations per step;
 //! - `cattaneo`: Cattaneo–Mindlin partial slip of the same half-disc shifted sideways after the
 //!   normal load: the stick half-width c against a √(1 − Q/(μP));
 //! - `sliding`: a block pressed onto the foundation and dragged along it: the tangential
 //!   resultant grows and saturates at μP.
 //!
 //! ```text
-//! cargo run --release -p simulate --example validation -- [hertz|cattaneo|sliding|all] [--quick]
+//! cargo run --release -p simulate --example validation -- [hertz|hertz3d|cattaneo|sliding|all] [--quick]
 //! ```
 //!
 //! Each prints its table, writes it to `reports/validation/<name>.md` and draws an SVG beside
@@ -237,21 +242,141 @@ fn hertz(quick: bool) -> String {
         &result.pressures,
         result.hertz_half_width,
         result.hertz_peak,
+        "Hertz line contact: pressure on the arc",
+        &format!("h = {mesh}, c_ν = {stiffness:.0e}, ν = 0.3"),
+    );
+    table
+}
+
+/// One 3D Hertz run: the measured load, radii, peak pressure, the Hertz values and the Newton
+/// iterations of each step.
+struct Hertz3d {
+    load: f64,
+    /// From the area of the contact zone of the quarter: √(4 · area/π).
+    area_radius: f64,
+    /// From the pressure profile along the radius y = 0 ([`pressure_ellipse`]).
+    profile_radius: f64,
+    peak: f64,
+    hertz_radius: f64,
+    hertz_peak: f64,
+    newton: Vec<usize>,
+    pressures: Vec<(f64, f64)>,
+    seconds: f64,
+}
+
+/// Runs `hertz3d.toml` on the mesh of contact size `mesh` with c_ν = `stiffness` (E = 1,
+/// ν = 0.3).
+fn hertz3d_run(mesh: &str, stiffness: f64) -> Hertz3d {
+    let template = std::fs::read_to_string(validation_dir().join("hertz3d.toml")).unwrap();
+    let mesh_path = validation_dir().join(format!("hertz3d_h{mesh}.msh"));
+    let replacements = [
+        (
+            "file = \"hertz3d_h0.007.msh\"",
+            format!("file = \"{}\"", mesh_path.display()),
+        ),
+        ("stiffness = 1e6", format!("stiffness = {stiffness:e}")),
+    ];
+    let result = run(
+        &template,
+        &replacements,
+        &format!("hertz3d-{mesh}-{stiffness:e}"),
+    );
+    let last = result.history.last().unwrap();
+    // the quarter carries a quarter of the load
+    let load = 4.0 * last["force_z"];
+    let records = read_contact_history(&result.out.join("contact_history.csv")).unwrap();
+    let final_step = records.last().unwrap().step;
+    let pressures: Vec<(f64, f64)> = records
+        .iter()
+        .filter(|r| r.step == final_step)
+        .map(|r| (r.coordinate, r.normal_pressure))
+        .collect();
+    let (peak, profile_radius) =
+        pressure_ellipse(&pressures).expect("fewer than two nodes in the contact zone");
+    let (radius, young, poisson) = (1.0, 1.0, 0.3);
+    let modulus = young / (1.0 - poisson * poisson);
+    let hertz_radius = (3.0 * load * radius / (4.0 * modulus)).cbrt();
+    Hertz3d {
+        load,
+        area_radius: (4.0 * last["contact_zone"] / std::f64::consts::PI).sqrt(),
+        profile_radius,
+        peak,
+        hertz_radius,
+        hertz_peak: 3.0 * load / (2.0 * std::f64::consts::PI * hertz_radius * hertz_radius),
+        newton: result
+            .history
+            .iter()
+            .map(|row| row["newton_iterations"] as usize)
+            .collect(),
+        pressures,
+        seconds: result.seconds,
+    }
+}
+
+/// The 3D Hertz validation: a table over meshes × c_ν and the pressure along a radius.
+fn hertz3d(quick: bool) -> String {
+    let meshes: &[&str] = if quick {
+        &["0.02"]
+    } else {
+        &["0.02", "0.01", "0.007"]
+    };
+    let stiffnesses: &[f64] = if quick { &[1e6] } else { &[1e4, 1e6] };
+    let mut table = String::from(
+        "Against a = (3PR/4E*)^(1/3) and p0 = 3P/(2πa²) for the measured load P (E = 1, ν = 0.3, R = 1, \
+         δ = 0.0036; P is four times the load of the quarter). a (area) is √(area/π) of the contact \
+         zone, a (profile) the radius of the ellipse through the nodal pressures along y = 0.\n\n\
+         | h at contact | c_ν | P | a/R | a (area) | a (profile) | p0 | error a (area) | error a (profile) | error p0 | Newton per step | time |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    let mut profile = None;
+    for mesh in meshes {
+        for &stiffness in stiffnesses {
+            let h = hertz3d_run(mesh, stiffness);
+            let newton: Vec<String> = h.newton.iter().map(|n| n.to_string()).collect();
+            writeln!(
+                table,
+                "| {mesh} | {stiffness:.0e} | {:.5e} | {:.4} | {:.5} | {:.5} | {:.5} | {:+.2} % | {:+.2} % | {:+.2} % | {} | {:.1} s |",
+                h.load,
+                h.hertz_radius,
+                h.area_radius,
+                h.profile_radius,
+                h.peak,
+                percent(h.area_radius, h.hertz_radius),
+                percent(h.profile_radius, h.hertz_radius),
+                percent(h.peak, h.hertz_peak),
+                newton.join(", "),
+                h.seconds
+            )
+            .unwrap();
+            profile = Some((mesh.to_string(), stiffness, h));
+        }
+    }
+    let (mesh, stiffness, h) = profile.unwrap();
+    pressure_svg(
+        &report_dir().join("hertz3d_pressure.svg"),
+        &h.pressures,
+        h.hertz_radius,
+        h.hertz_peak,
+        "Hertz sphere on a flat: pressure along a radius",
         &format!("h = {mesh}, c_ν = {stiffness:.0e}, ν = 0.3"),
     );
     table
 }
 
 /// The computed nodal pressures against the Hertz profile p0 √(1 − x²/a²).
-fn pressure_svg(path: &Path, pressures: &[(f64, f64)], width: f64, peak: f64, label: &str) {
+fn pressure_svg(
+    path: &Path,
+    pressures: &[(f64, f64)],
+    width: f64,
+    peak: f64,
+    title: &str,
+    label: &str,
+) {
     let root = SVGBackend::new(path, (720, 420)).into_drawing_area();
     root.fill(&WHITE).unwrap();
     let range = 1.6 * width;
     let mut chart = ChartBuilder::on(&root)
-        .caption(
-            format!("Hertz line contact: pressure on the arc ({label})"),
-            ("sans-serif", 18),
-        )
+        .caption(format!("{title} ({label})"), ("sans-serif", 18))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(60)
@@ -482,6 +607,9 @@ fn main() {
     let mut reports = Vec::new();
     if which == "hertz" || which == "all" {
         reports.push(("hertz", hertz(quick)));
+    }
+    if which == "hertz3d" || which == "all" {
+        reports.push(("hertz3d", hertz3d(quick)));
     }
     if which == "cattaneo" || which == "all" {
         reports.push(("cattaneo", cattaneo(quick)));

@@ -120,6 +120,27 @@ impl<const D: usize> VelocityOperator<D> {
         let target = settings.tolerance * NEWTON_HEADROOM;
         let mut velocity = self.start_vector(start);
         let mut point = self.evaluate(load, weights, &velocity);
+        if self.law.is_linear() && self.implicit.is_some() && start.iter().any(|&v| v != 0.0) {
+            // A load that stops — the step at rest of a static contact problem solved with
+            // k = τ — is met by v = 0 (u_n = u_{n−1}) far better than by the previous velocity,
+            // which would move the body on and let Newton walk it back: start from whichever
+            // of the two has the lower J (one more evaluation).
+            let rest = self.start_vector(&vec![0.0; start.len()]);
+            let at_rest = self.evaluate(load, weights, &rest);
+            let change = at_rest
+                .cell_energy
+                .iter()
+                .zip(&point.cell_energy)
+                .map(|(r, s)| r - s)
+                .sum::<f64>()
+                - (dot(load, &rest) - dot(load, &velocity))
+                + self.friction_term(weights, &rest)
+                - self.friction_term(weights, &velocity);
+            if change < 0.0 {
+                velocity = rest;
+                point = at_rest;
+            }
+        }
         let mut model_multipliers = point.multipliers.clone();
         let mut history: Vec<f64> = Vec::new();
         let mut best = point.residual;

@@ -1,0 +1,87 @@
+"""Generates the meshes of the 3D Hertz validation (hertz3d.toml).
+
+A quarter of a block, (0, 1) x (0, 1) x (0, 1), whose face z = 0 is pressed onto a rigid
+paraboloid (the gap is (x^2 + y^2)/2R): by symmetry a quarter of the body, the planes x = 0
+and y = 0 cutting the contact disc. Physical groups of surfaces, used by name in the problem
+file:
+
+    top      the face z = 1   (prescribed approach u_z = -delta)
+    contact  the face z = 0   (contact with the indenter)
+    sym_x    the plane x = 0  (symmetry: u_x = 0)
+    sym_y    the plane y = 0  (symmetry: u_y = 0)
+    sides    the faces x = 1 and y = 1 (traction free)
+
+and the physical volume `block`. The tetrahedra are graded towards the centre of the contact:
+size H_CONTACT within a distance 0.1 of the origin (the contact radius is about 0.06), growing
+linearly to 0.2 at distance 0.8. Three meshes, h = 0.02, 0.01, 0.007 at the contact, saved as
+MSH 4.1 binary (the format read by contact_damage::io::gmsh): hertz3d_h0.02.msh,
+hertz3d_h0.01.msh, hertz3d_h0.007.msh.
+
+Regenerate (from the repository root; gmsh 4.15.2 from PyPI, `pip install gmsh==4.15.2`):
+
+    python3 verification/validation/hertz3d_mesh.py
+
+Gmsh's 3D mesher is deterministic for a given version and one thread.
+"""
+
+import os
+
+import gmsh
+
+SIZES = [0.02, 0.01, 0.007]
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def mesh(h_contact: float) -> str:
+    gmsh.initialize()
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.option.setNumber("General.NumThreads", 1)
+    gmsh.model.add("hertz3d")
+    occ = gmsh.model.occ
+    block = occ.addBox(0.0, 0.0, 0.0, 1.0, 1.0, 1.0)
+    occ.synchronize()
+    faces = {}
+    for dim, tag in gmsh.model.getEntities(2):
+        x, y, z = gmsh.model.occ.getCenterOfMass(dim, tag)
+        if abs(z - 1.0) < 1e-9:
+            faces.setdefault("top", []).append(tag)
+        elif abs(z) < 1e-9:
+            faces.setdefault("contact", []).append(tag)
+        elif abs(x) < 1e-9:
+            faces.setdefault("sym_x", []).append(tag)
+        elif abs(y) < 1e-9:
+            faces.setdefault("sym_y", []).append(tag)
+        else:
+            faces.setdefault("sides", []).append(tag)
+    for name in ["top", "contact", "sym_x", "sym_y", "sides"]:
+        gmsh.model.addPhysicalGroup(2, faces[name], name=name)
+    gmsh.model.addPhysicalGroup(3, [block], name="block")
+    origin = occ.addPoint(0.0, 0.0, 0.0)
+    occ.synchronize()
+    field = gmsh.model.mesh.field
+    distance = field.add("Distance")
+    field.setNumbers(distance, "PointsList", [origin])
+    threshold = field.add("Threshold")
+    field.setNumber(threshold, "InField", distance)
+    field.setNumber(threshold, "SizeMin", h_contact)
+    field.setNumber(threshold, "SizeMax", 0.2)
+    field.setNumber(threshold, "DistMin", 0.1)
+    field.setNumber(threshold, "DistMax", 0.8)
+    field.setAsBackgroundMesh(threshold)
+    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
+    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    gmsh.model.mesh.generate(3)
+    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+    gmsh.option.setNumber("Mesh.Binary", 1)
+    path = os.path.join(HERE, f"hertz3d_h{h_contact}.msh")
+    gmsh.write(path)
+    nodes = len(gmsh.model.mesh.getNodes()[0])
+    tetrahedra = len(gmsh.model.mesh.getElementsByType(4)[0])
+    gmsh.finalize()
+    return f"{path}: {nodes} nodes, {tetrahedra} tetrahedra"
+
+
+if __name__ == "__main__":
+    for size in SIZES:
+        print(mesh(size))
