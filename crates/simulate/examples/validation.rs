@@ -13,10 +13,12 @@
 //! - `cattaneo`: Cattaneo–Mindlin partial slip of the same half-disc shifted sideways after the
 //!   normal load: the stick half-width c against a √(1 − Q/(μP));
 //! - `sliding`: a block pressed onto the foundation and dragged along it: the tangential
-//!   resultant grows and saturates at μP.
+//!   resultant grows and saturates at μP;
+//! - `sliding3d`: the same in 3D, dragged at 30° to the block's long side: the resultant and
+//!   its direction tend to μP and the drag's as the whole face slips.
 //!
 //! ```text
-//! cargo run --release -p simulate --example validation -- [hertz|hertz3d|cattaneo|sliding|all] [--quick]
+//! cargo run --release -p simulate --example validation -- [hertz|hertz3d|cattaneo|sliding|sliding3d|all] [--quick]
 //! ```
 //!
 //! Each prints its table, writes it to `reports/validation/<name>.md` and draws an SVG beside
@@ -460,15 +462,21 @@ fn sliding() -> String {
         previous_load = row["normal_force"];
     }
     writeln!(table, "\n({:.1} s)", result.seconds).unwrap();
-    let path = report_dir().join("sliding.svg");
-    let root = SVGBackend::new(&path, (720, 380)).into_drawing_area();
+    ratio_svg(
+        &report_dir().join("sliding.svg"),
+        "Sliding block: tangential resultant Q / (μP)",
+        &ratios,
+    );
+    table
+}
+
+/// Q/(μP) against the drag, as a curve with its points.
+fn ratio_svg(path: &Path, title: &str, ratios: &[(f64, f64)]) {
+    let root = SVGBackend::new(path, (720, 380)).into_drawing_area();
     root.fill(&WHITE).unwrap();
     let end = ratios.last().map_or(1.0, |r| r.0);
     let mut chart = ChartBuilder::on(&root)
-        .caption(
-            "Sliding block: tangential resultant Q / (μP)",
-            ("sans-serif", 18),
-        )
+        .caption(title, ("sans-serif", 18))
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(50)
@@ -481,7 +489,7 @@ fn sliding() -> String {
         .draw()
         .unwrap();
     chart
-        .draw_series(LineSeries::new(ratios.clone(), RED.stroke_width(2)))
+        .draw_series(LineSeries::new(ratios.to_vec(), RED.stroke_width(2)))
         .unwrap();
     chart
         .draw_series(
@@ -491,6 +499,62 @@ fn sliding() -> String {
         )
         .unwrap();
     root.present().unwrap();
+}
+
+/// The sliding block in 3D, dragged at 30° to its long side: Q against μ P_(n−1) and the
+/// direction of the friction force against the drag's. Once the whole face slips, every node's
+/// friction opposes its own slip, so Q ≤ μ P_(n−1) with equality when the slip is uniform:
+/// Q/(μP) and the direction tend to 1 and 30° as the block settles into a rigid translation.
+fn sliding3d() -> String {
+    let template = std::fs::read_to_string(validation_dir().join("sliding3d.toml")).unwrap();
+    let result = run(&template, &[], "sliding3d");
+    let friction = 0.3;
+    let drag_per_step = 1e-4;
+    let mut table = String::from(
+        "| step | drag s | P | Q | Q/(μ P_(n−1)) | direction of −F_τ | reaction + force (x, y) | stick | slip | Newton |\n|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    let mut ratios = Vec::new();
+    let mut previous_load = f64::NAN;
+    for row in &result.history {
+        let ratio = row["tangential_force"] / (friction * previous_load);
+        let drag = drag_per_step * (row["t"] - 1.0).max(0.0);
+        if ratio.is_finite() {
+            ratios.push((drag, ratio));
+        }
+        let direction = if row["tangential_force"] > 0.0 {
+            format!(
+                "{:.3}°",
+                (-row["force_y"]).atan2(-row["force_x"]).to_degrees()
+            )
+        } else {
+            "—".into()
+        };
+        writeln!(
+            table,
+            "| {} | {drag:.4} | {:.6e} | {:.6e} | {} | {direction} | {:.1e}, {:.1e} | {} | {} | {} |",
+            row["step"],
+            row["normal_force"],
+            row["tangential_force"],
+            if ratio.is_finite() {
+                format!("{ratio:.6}")
+            } else {
+                "—".into()
+            },
+            row["reaction_z_max_x"] + row["force_x"],
+            row["reaction_z_max_y"] + row["force_y"],
+            row["stick"],
+            row["slip"],
+            row["newton_iterations"]
+        )
+        .unwrap();
+        previous_load = row["normal_force"];
+    }
+    writeln!(table, "\n({:.1} s)", result.seconds).unwrap();
+    ratio_svg(
+        &report_dir().join("sliding3d.svg"),
+        "Sliding block in 3D: tangential resultant Q / (μP)",
+        &ratios,
+    );
     table
 }
 
@@ -616,6 +680,9 @@ fn main() {
     }
     if which == "sliding" || which == "all" {
         reports.push(("sliding", sliding()));
+    }
+    if which == "sliding3d" || which == "all" {
+        reports.push(("sliding3d", sliding3d()));
     }
     for (name, table) in reports {
         println!("## {name}\n\n{table}");

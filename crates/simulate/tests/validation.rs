@@ -79,6 +79,46 @@ fn sliding_block_friction_saturates_at_mu_times_the_normal_force() {
     assert!(saturated >= 10, "only {saturated} fully slipping steps");
 }
 
+/// The block dragged in 3D at 30° to its long side: every node's friction opposes its own slip,
+/// so the resultant Q never exceeds μ P_(n−1) (the bound of step n is taken at u_(n−1)); once
+/// the whole face slips and the block settles into a rigid translation Q/(μ P_(n−1)) → 1 and
+/// the friction force turns to oppose the drag (29.7° at the last step, 27.9° while it
+/// sticks: the block is stiffer in shear along its long side); the grip balances it at every
+/// step.
+#[test]
+fn sliding_block_in_3d_saturates_at_mu_p_opposite_to_the_drag() {
+    let (rows, _) = run("sliding3d", &[]);
+    let friction = 0.3;
+    let mut fully_slipping = 0;
+    for pair in rows.windows(2) {
+        let (before, row) = (&pair[0], &pair[1]);
+        let bound = friction * before["normal_force"];
+        let q = row["tangential_force"];
+        assert!(q <= bound * (1.0 + 1e-9), "Q = {q:e} above μP = {bound:e}");
+        for axis in ["x", "y"] {
+            let balance = row[&format!("reaction_z_max_{axis}")] + row[&format!("force_{axis}")];
+            assert!(
+                balance.abs() <= 1e-9 * row["normal_force"],
+                "{axis} balance {balance:e}"
+            );
+        }
+        if row["stick"] == 0.0 {
+            fully_slipping += 1;
+        }
+    }
+    assert!(
+        fully_slipping >= 10,
+        "only {fully_slipping} fully slipping steps"
+    );
+    // sticking at first, then saturated and opposite to the drag
+    assert!(rows[2]["tangential_force"] < 0.5 * friction * rows[1]["normal_force"]);
+    let (before, last) = (&rows[rows.len() - 2], &rows[rows.len() - 1]);
+    let ratio = last["tangential_force"] / (friction * before["normal_force"]);
+    assert!(ratio > 0.9999, "Q/(μP) = {ratio}");
+    let direction = (-last["force_y"]).atan2(-last["force_x"]).to_degrees();
+    assert!((direction - 30.0).abs() < 0.5, "friction at {direction}°");
+}
+
 /// Hertz line contact on the coarse mesh (h = 0.01 at the contact, P2, c_ν = 1e6, ν = 0.3):
 /// the peak pressure and the half-width of the computed pressure ellipse against Hertz's
 /// formulas for the measured load. Tolerance 1 %: the finest mesh of the full table differs by
