@@ -1,4 +1,4 @@
-"""Generates the meshes of the 3D Hertz validation (hertz3d.toml).
+"""Generates the meshes of the 3D Hertz and Mindlin validations (hertz3d.toml, mindlin3d.toml).
 
 A quarter of a block, (0, 1) x (0, 1) x (0, 1), whose face z = 0 is pressed onto a rigid
 paraboloid (the gap is (x^2 + y^2)/2R): by symmetry a quarter of the body, the planes x = 0
@@ -17,6 +17,10 @@ linearly to 0.2 at distance 0.8. Three meshes, h = 0.02, 0.01, 0.007 at the cont
 MSH 4.1 binary (the format read by contact_damage::io::gmsh): hertz3d_h0.02.msh,
 hertz3d_h0.01.msh, hertz3d_h0.007.msh.
 
+For Mindlin's tangential load along x, a half of the block, (-1, 1) x (0, 1) x (0, 1), with
+the same groups but no sym_x (the faces x = -1 and x = 1 are `sides`), graded the same way:
+mindlin3d_h0.02.msh, mindlin3d_h0.01.msh.
+
 Regenerate (from the repository root; gmsh 4.15.2 from PyPI, `pip install gmsh==4.15.2`):
 
     python3 verification/validation/hertz3d_mesh.py
@@ -29,16 +33,18 @@ import os
 import gmsh
 
 SIZES = [0.02, 0.01, 0.007]
+HALF_SIZES = [0.02, 0.01]
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
-def mesh(h_contact: float) -> str:
+def mesh(h_contact: float, half: bool = False) -> str:
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.option.setNumber("General.NumThreads", 1)
-    gmsh.model.add("hertz3d")
+    gmsh.model.add("mindlin3d" if half else "hertz3d")
     occ = gmsh.model.occ
-    block = occ.addBox(0.0, 0.0, 0.0, 1.0, 1.0, 1.0)
+    x_min = -1.0 if half else 0.0
+    block = occ.addBox(x_min, 0.0, 0.0, 1.0 - x_min, 1.0, 1.0)
     occ.synchronize()
     faces = {}
     for dim, tag in gmsh.model.getEntities(2):
@@ -47,13 +53,14 @@ def mesh(h_contact: float) -> str:
             faces.setdefault("top", []).append(tag)
         elif abs(z) < 1e-9:
             faces.setdefault("contact", []).append(tag)
-        elif abs(x) < 1e-9:
+        elif abs(x) < 1e-9 and not half:
             faces.setdefault("sym_x", []).append(tag)
         elif abs(y) < 1e-9:
             faces.setdefault("sym_y", []).append(tag)
         else:
             faces.setdefault("sides", []).append(tag)
-    for name in ["top", "contact", "sym_x", "sym_y", "sides"]:
+    names = ["top", "contact", "sym_y", "sides"] if half else ["top", "contact", "sym_x", "sym_y", "sides"]
+    for name in names:
         gmsh.model.addPhysicalGroup(2, faces[name], name=name)
     gmsh.model.addPhysicalGroup(3, [block], name="block")
     origin = occ.addPoint(0.0, 0.0, 0.0)
@@ -74,7 +81,8 @@ def mesh(h_contact: float) -> str:
     gmsh.model.mesh.generate(3)
     gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
     gmsh.option.setNumber("Mesh.Binary", 1)
-    path = os.path.join(HERE, f"hertz3d_h{h_contact}.msh")
+    stem = "mindlin3d" if half else "hertz3d"
+    path = os.path.join(HERE, f"{stem}_h{h_contact}.msh")
     gmsh.write(path)
     nodes = len(gmsh.model.mesh.getNodes()[0])
     tetrahedra = len(gmsh.model.mesh.getElementsByType(4)[0])
@@ -85,3 +93,5 @@ def mesh(h_contact: float) -> str:
 if __name__ == "__main__":
     for size in SIZES:
         print(mesh(size))
+    for size in HALF_SIZES:
+        print(mesh(size, half=True))

@@ -12,13 +12,15 @@
 //!   graded Gmsh meshes and c_ν, with the Newton iterations per step;
 //! - `cattaneo`: Cattaneo–Mindlin partial slip of the same half-disc shifted sideways after the
 //!   normal load: the stick half-width c against a √(1 − Q/(μP));
+//! - `mindlin3d`: Mindlin partial slip of the 3D sphere (half of the block, its symmetry plane
+//!   through the contact disc along the load): the stick radius c against a (1 − Q/(μP))^(1/3);
 //! - `sliding`: a block pressed onto the foundation and dragged along it: the tangential
 //!   resultant grows and saturates at μP;
 //! - `sliding3d`: the same in 3D, dragged at 30° to the block's long side: the resultant and
 //!   its direction tend to μP and the drag's as the whole face slips.
 //!
 //! ```text
-//! cargo run --release -p simulate --example validation -- [hertz|hertz3d|cattaneo|sliding|sliding3d|all] [--quick]
+//! cargo run --release -p simulate --example validation -- [hertz|hertz3d|cattaneo|mindlin3d|sliding|sliding3d|all] [--quick]
 //! ```
 //!
 //! Each prints its table, writes it to `reports/validation/<name>.md` and draws an SVG beside
@@ -558,6 +560,110 @@ fn sliding3d() -> String {
     table
 }
 
+/// Mindlin partial slip in 3D: per tangential step, the stick radius c along the diameter
+/// y = 0 in the direction of the load (half the extent of the loaded nodes that stick) against
+/// a (1 − Q/(μP))^(1/3), a from the pressure profile of the same step; on each mesh.
+fn mindlin3d(quick: bool) -> String {
+    let template = std::fs::read_to_string(validation_dir().join("mindlin3d.toml")).unwrap();
+    let friction = 0.5;
+    let meshes: &[&str] = if quick { &["0.02"] } else { &["0.02", "0.01"] };
+    let mut table = String::from(
+        "Half of the block (symmetry plane y = 0), E = 1, ν = 0.3, μ = 0.5, R = 1, δ = 0.0036 \
+         (a/R = 0.061), c_ν = 1e6; P and Q are twice the loads of the half; s is the \
+         coordinate along the diameter y = 0 from its centre.\n\n",
+    );
+    let mut curves = Vec::new();
+    for mesh in meshes {
+        let mesh_path = validation_dir().join(format!("mindlin3d_h{mesh}.msh"));
+        let replacements = [(
+            "file = \"mindlin3d_h0.01.msh\"",
+            format!("file = \"{}\"", mesh_path.display()),
+        )];
+        let result = run(&template, &replacements, &format!("mindlin3d-{mesh}"));
+        let records = read_contact_history(&result.out.join("contact_history.csv")).unwrap();
+        writeln!(
+            table,
+            "h = {mesh} at the contact ({:.1} s):\n\n| step | Q/(μP) | c/a | (1 − Q/(μP))^(1/3) | difference | stick zone centre / a | Newton | friction iterations |\n|---|---|---|---|---|---|---|---|",
+            result.seconds
+        )
+        .unwrap();
+        let mut points = Vec::new();
+        for row in result.history.iter().skip(1) {
+            let step = row["step"] as usize;
+            // the profile runs from x = −0.2: s − 0.2 is x, centred on the contact
+            let nodes: Vec<(f64, usize, f64)> = records
+                .iter()
+                .filter(|r| r.step == step)
+                .map(|r| (r.coordinate - 0.2, r.status, r.normal_pressure))
+                .collect();
+            let pressures: Vec<(f64, f64)> = nodes.iter().map(|&(x, _, p)| (x, p)).collect();
+            let (_, radius) = pressure_ellipse(&pressures).expect("no contact zone");
+            let (stick, centre) = stick_extent(nodes.iter().copied()).unwrap_or((0.0, 0.0));
+            let ratio = row["tangential_force"] / (friction * row["normal_force"]);
+            let stick_ratio = stick / radius;
+            let theory = (1.0 - ratio).max(0.0).cbrt();
+            writeln!(
+                table,
+                "| {step} | {ratio:.3} | {stick_ratio:.3} | {theory:.3} | {:+.3} | {:+.3} | {} | {} |",
+                stick_ratio - theory,
+                centre / radius,
+                row["newton_iterations"],
+                row["friction_iterations"]
+            )
+            .unwrap();
+            points.push((ratio, stick_ratio));
+        }
+        table.push('\n');
+        curves.push((mesh.to_string(), points));
+    }
+    let path = report_dir().join("mindlin3d.svg");
+    let root = SVGBackend::new(&path, (640, 420)).into_drawing_area();
+    root.fill(&WHITE).unwrap();
+    let mut chart = ChartBuilder::on(&root)
+        .caption("Mindlin in 3D: stick radius c/a", ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(0.0..1.0, 0.0..1.05)
+        .unwrap();
+    chart
+        .configure_mesh()
+        .x_desc("Q/(μP)")
+        .y_desc("c/a")
+        .draw()
+        .unwrap();
+    chart
+        .draw_series(LineSeries::new(
+            (0..=100).map(|i| {
+                let q = i as f64 / 100.0;
+                (q, (1.0 - q).cbrt())
+            }),
+            BLACK.stroke_width(2),
+        ))
+        .unwrap()
+        .label("(1 − Q/(μP))^(1/3)")
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+    for ((mesh, points), colour) in curves.iter().zip([RED, BLUE]) {
+        chart
+            .draw_series(
+                points
+                    .iter()
+                    .map(|&(q, c)| Circle::new((q, c), 4, colour.filled())),
+            )
+            .unwrap()
+            .label(format!("computed, h = {mesh}"))
+            .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .unwrap();
+    root.present().unwrap();
+    table
+}
+
 /// Cattaneo–Mindlin partial slip: per tangential step, the stick half-width c (half the extent
 /// of the loaded nodes that stick; node-quantized to ±h/2 per side) against
 /// a √(1 − Q/(μP)), a from the pressure profile of the same step, for ν = 0.3 and 0.49.
@@ -677,6 +783,9 @@ fn main() {
     }
     if which == "cattaneo" || which == "all" {
         reports.push(("cattaneo", cattaneo(quick)));
+    }
+    if which == "mindlin3d" || which == "all" {
+        reports.push(("mindlin3d", mindlin3d(quick)));
     }
     if which == "sliding" || which == "all" {
         reports.push(("sliding", sliding()));
