@@ -560,6 +560,61 @@ fn sliding3d() -> String {
     table
 }
 
+/// The stick zone's size c/a against Q/(μP): the theory's curve `theory` (label, function) and
+/// the computed points of each labelled curve.
+fn stick_svg(
+    path: &Path,
+    title: &str,
+    theory: (&str, fn(f64) -> f64),
+    curves: &[(String, Vec<(f64, f64)>)],
+) {
+    let root = SVGBackend::new(path, (640, 420)).into_drawing_area();
+    root.fill(&WHITE).unwrap();
+    let mut chart = ChartBuilder::on(&root)
+        .caption(title, ("sans-serif", 18))
+        .margin(12)
+        .x_label_area_size(40)
+        .y_label_area_size(50)
+        .build_cartesian_2d(0.0..1.0, 0.0..1.05)
+        .unwrap();
+    chart
+        .configure_mesh()
+        .x_desc("Q/(μP)")
+        .y_desc("c/a")
+        .draw()
+        .unwrap();
+    let (label, curve) = theory;
+    chart
+        .draw_series(LineSeries::new(
+            (0..=100).map(|i| {
+                let q = i as f64 / 100.0;
+                (q, curve(q))
+            }),
+            BLACK.stroke_width(2),
+        ))
+        .unwrap()
+        .label(label)
+        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
+    for ((label, points), colour) in curves.iter().zip([RED, BLUE]) {
+        chart
+            .draw_series(
+                points
+                    .iter()
+                    .map(|&(q, c)| Circle::new((q, c), 4, colour.filled())),
+            )
+            .unwrap()
+            .label(label)
+            .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+    }
+    chart
+        .configure_series_labels()
+        .background_style(WHITE.mix(0.8))
+        .border_style(BLACK)
+        .draw()
+        .unwrap();
+    root.present().unwrap();
+}
+
 /// Mindlin partial slip in 3D: per tangential step, the stick radius c along the diameter
 /// y = 0 in the direction of the load (half the extent of the loaded nodes that stick) against
 /// a (1 − Q/(μP))^(1/3), a from the pressure profile of the same step; on each mesh.
@@ -616,51 +671,16 @@ fn mindlin3d(quick: bool) -> String {
         table.push('\n');
         curves.push((mesh.to_string(), points));
     }
-    let path = report_dir().join("mindlin3d.svg");
-    let root = SVGBackend::new(&path, (640, 420)).into_drawing_area();
-    root.fill(&WHITE).unwrap();
-    let mut chart = ChartBuilder::on(&root)
-        .caption("Mindlin in 3D: stick radius c/a", ("sans-serif", 18))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(50)
-        .build_cartesian_2d(0.0..1.0, 0.0..1.05)
-        .unwrap();
-    chart
-        .configure_mesh()
-        .x_desc("Q/(μP)")
-        .y_desc("c/a")
-        .draw()
-        .unwrap();
-    chart
-        .draw_series(LineSeries::new(
-            (0..=100).map(|i| {
-                let q = i as f64 / 100.0;
-                (q, (1.0 - q).cbrt())
-            }),
-            BLACK.stroke_width(2),
-        ))
-        .unwrap()
-        .label("(1 − Q/(μP))^(1/3)")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
-    for ((mesh, points), colour) in curves.iter().zip([RED, BLUE]) {
-        chart
-            .draw_series(
-                points
-                    .iter()
-                    .map(|&(q, c)| Circle::new((q, c), 4, colour.filled())),
-            )
-            .unwrap()
-            .label(format!("computed, h = {mesh}"))
-            .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .unwrap();
-    root.present().unwrap();
+    let curves: Vec<(String, Vec<(f64, f64)>)> = curves
+        .into_iter()
+        .map(|(mesh, points)| (format!("computed, h = {mesh}"), points))
+        .collect();
+    stick_svg(
+        &report_dir().join("mindlin3d.svg"),
+        "Mindlin in 3D: stick radius c/a",
+        ("(1 − Q/(μP))^(1/3)", |q| (1.0 - q).cbrt()),
+        &curves,
+    );
     table
 }
 
@@ -718,51 +738,16 @@ fn cattaneo(quick: bool) -> String {
         table.push('\n');
         curves.push((poisson, points));
     }
-    let path = report_dir().join("cattaneo.svg");
-    let root = SVGBackend::new(&path, (640, 420)).into_drawing_area();
-    root.fill(&WHITE).unwrap();
-    let mut chart = ChartBuilder::on(&root)
-        .caption("Cattaneo–Mindlin: stick half-width c/a", ("sans-serif", 18))
-        .margin(12)
-        .x_label_area_size(40)
-        .y_label_area_size(50)
-        .build_cartesian_2d(0.0..1.0, 0.0..1.05)
-        .unwrap();
-    chart
-        .configure_mesh()
-        .x_desc("Q/(μP)")
-        .y_desc("c/a")
-        .draw()
-        .unwrap();
-    chart
-        .draw_series(LineSeries::new(
-            (0..=100).map(|i| {
-                let q = i as f64 / 100.0;
-                (q, (1.0 - q).sqrt())
-            }),
-            BLACK.stroke_width(2),
-        ))
-        .unwrap()
-        .label("√(1 − Q/(μP))")
-        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], BLACK.stroke_width(2)));
-    for ((poisson, points), colour) in curves.iter().zip([RED, BLUE]) {
-        chart
-            .draw_series(
-                points
-                    .iter()
-                    .map(|&(q, c)| Circle::new((q, c), 4, colour.filled())),
-            )
-            .unwrap()
-            .label(format!("computed, ν = {poisson}"))
-            .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.8))
-        .border_style(BLACK)
-        .draw()
-        .unwrap();
-    root.present().unwrap();
+    let curves: Vec<(String, Vec<(f64, f64)>)> = curves
+        .into_iter()
+        .map(|(poisson, points)| (format!("computed, ν = {poisson}"), points))
+        .collect();
+    stick_svg(
+        &report_dir().join("cattaneo.svg"),
+        "Cattaneo–Mindlin: stick half-width c/a",
+        ("√(1 − Q/(μP))", |q| (1.0 - q).sqrt()),
+        &curves,
+    );
     table
 }
 

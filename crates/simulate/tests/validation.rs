@@ -47,6 +47,17 @@ fn run(name: &str, replacements: &[(&str, String)]) -> (Vec<BTreeMap<String, f64
     (rows, out)
 }
 
+/// The nodal pressures (s, p_ν) of the last step recorded in the run's `contact_history.csv`.
+fn last_pressures(out: &Path) -> Vec<(f64, f64)> {
+    let records = read_contact_history(&out.join("contact_history.csv")).unwrap();
+    let step = records.last().unwrap().step;
+    records
+        .iter()
+        .filter(|r| r.step == step)
+        .map(|r| (r.coordinate, r.normal_pressure))
+        .collect()
+}
+
 /// A block dragged along the foundation: the friction force grows while parts of Γ3 stick and
 /// saturates at μP once the whole face slips — with the friction bound of step n taken at
 /// u_{n−1} (5.1), exactly Q_n = μ P_{n−1}; the grip's reaction balances it at every step.
@@ -137,13 +148,7 @@ fn hertz_line_contact_on_the_coarse_mesh_matches_the_theory() {
     );
     let last = rows.last().unwrap();
     let load = last["force_y"];
-    let records = read_contact_history(&out.join("contact_history.csv")).unwrap();
-    let step = records.last().unwrap().step;
-    let pressures: Vec<(f64, f64)> = records
-        .iter()
-        .filter(|r| r.step == step)
-        .map(|r| (r.coordinate, r.normal_pressure))
-        .collect();
+    let pressures = last_pressures(&out);
     let (peak, half_width) = pressure_ellipse(&pressures).expect("no contact zone");
     let plane_modulus = 1.0 / (1.0 - 0.3f64.powi(2));
     let hertz_width = (4.0 * load / (std::f64::consts::PI * plane_modulus)).sqrt();
@@ -189,13 +194,7 @@ fn hertz_sphere_in_3d_on_the_coarse_mesh_matches_the_theory() {
     );
     let last = rows.last().unwrap();
     let load = 4.0 * last["force_z"];
-    let records = read_contact_history(&out.join("contact_history.csv")).unwrap();
-    let step = records.last().unwrap().step;
-    let pressures: Vec<(f64, f64)> = records
-        .iter()
-        .filter(|r| r.step == step)
-        .map(|r| (r.coordinate, r.normal_pressure))
-        .collect();
+    let pressures = last_pressures(&out);
     let (peak, radius) = pressure_ellipse(&pressures).expect("no contact zone");
     let modulus = 1.0 / (1.0 - 0.3f64.powi(2));
     let hertz_radius = (3.0 * load / (4.0 * modulus)).cbrt();
