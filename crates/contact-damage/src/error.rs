@@ -36,6 +36,10 @@ pub enum Error {
     /// Invalid input other than a scalar parameter or a mesh (sizes, options).
     #[error("invalid input: {0}")]
     InvalidInput(String),
+    /// The constraints of Γ1 leave a piece of the body free to move rigidly (names the motion,
+    /// the piece and the parts that constrain it).
+    #[error("{0}")]
+    RigidMotion(String),
     /// An iterative solver stopped before reaching its tolerance.
     #[error(
         "{solver} did not converge in {iterations} iterations: residual {residual:.3e} > tolerance {tolerance:.1e}; residual history {history}"

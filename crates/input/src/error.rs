@@ -95,7 +95,9 @@ impl InputError {
     /// A solver error that names a key of the input file, located in the file `origin` of
     /// kind `kind`: a law that left its admissible range during a run (the solver names it,
     /// `elasticity.shear_modulus`) at its key under `[laws]`, initial data out of range
-    /// (`initial_damage at node 0 [0.0, 0.0]`) at theirs under `[loads]`. Other errors are
+    /// (`initial_damage at node 0 [0.0, 0.0]`) at theirs under `[loads]`, constraints of Γ1
+    /// that leave the body free to move rigidly at `displacement` (the `[[displacement]]`
+    /// parts and the clamped sides or groups, which the message names). Other errors are
     /// returned unchanged.
     pub fn located(self, kind: FileKind, origin: &str) -> InputError {
         match self {
@@ -116,6 +118,9 @@ impl InputError {
                     &format!("loads.{key}"),
                     format!("{place}: {key} = {}: {reason}", crate::number::short(value)),
                 )
+            }
+            InputError::Solver(contact_damage::Error::RigidMotion(message)) => {
+                kind.error(origin, "displacement", message)
             }
             other => other,
         }
@@ -160,6 +165,14 @@ mod tests {
             initial.located(FileKind::Problem, "p.toml").to_string(),
             "problem file `p.toml`, key `loads.initial_damage`: at node 3 [0.5, 0.0]: \
              initial_damage = 1.5: β0 must take values in [0, 1]"
+        );
+        let rigid = InputError::Solver(contact_damage::Error::RigidMotion(
+            "the body can move rigidly (translation along y)".into(),
+        ));
+        assert_eq!(
+            rigid.located(FileKind::Problem, "p.toml").to_string(),
+            "problem file `p.toml`, key `displacement`: the body can move rigidly (translation \
+             along y)"
         );
         let other = InputError::Solver(contact_damage::Error::parameter("steps", 0.0, "≥ 1"));
         assert!(!other

@@ -1332,3 +1332,31 @@ fn resume_refuses_another_profile_or_moment_point_naming_the_key() {
     }
     simulate::run_file(&problem, &resume).unwrap();
 }
+
+/// A body held by a roller only (u_x = 0 on x = 0, nothing else on Γ1) can slide along y: the
+/// run is refused before anything is factorized or written, naming the file, the key
+/// `displacement`, the free motion and the part.
+#[test]
+fn a_body_on_a_roller_only_is_refused_naming_the_file_and_the_key() {
+    let dir = scratch("simulate-rigid");
+    let tiny = tiny_example(&dir);
+    let text = std::fs::read_to_string(&tiny).unwrap();
+    assert!(text.contains("x_min = \"clamped\", "));
+    let roller = text.replace("x_min = \"clamped\", ", "")
+        + "\n[[displacement]]\npart = \"x_min\"\nx = \"0\"\n";
+    let problem = dir.join("roller.toml");
+    std::fs::write(&problem, roller).unwrap();
+    let out = dir.join("out");
+    let error = simulate::run_file(&problem, &quiet(&out))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        error.contains("roller.toml")
+            && error.contains("key `displacement`")
+            && error.contains("can move rigidly")
+            && error.contains("translation along y")
+            && error.contains("`x_min`"),
+        "{error}"
+    );
+    assert!(!out.join("history.csv").exists());
+}

@@ -520,7 +520,9 @@ pub fn run_problem<const D: usize>(
     let h = problem.mesh.max_cell_diameter();
     let mesh_cells = problem.mesh.num_cells();
     let shape_regularity = shape_regularity(&problem.mesh);
-    let mut simulation = Simulation::new(problem)?;
+    let mut simulation = Simulation::new(problem).map_err(|error| {
+        InputError::from(error).located(contact_input::FileKind::Case, &case.origin)
+    })?;
     let reference = match reference {
         Some(states) => {
             // stored states read from a results folder must fit this run's mesh and steps
@@ -574,7 +576,9 @@ pub fn reference_states<const D: usize>(
     cells: usize,
     steps: usize,
 ) -> Result<Vec<State>, InputError> {
-    let mut simulation = Simulation::new(case.problem(cells, degree, steps)?)?;
+    let mut simulation = Simulation::new(case.problem(cells, degree, steps)?).map_err(|error| {
+        InputError::from(error).located(contact_input::FileKind::Case, &case.origin)
+    })?;
     let mut states = vec![simulation.state().clone()];
     simulation
         .run(|report| {

@@ -99,7 +99,7 @@ fn pieces<const D: usize>(space: &LagrangeSpace<D>) -> (Vec<usize>, usize) {
 }
 
 /// Checks that the constrained unknowns of `dirichlet` stop every rigid motion of every
-/// connected piece of the body; otherwise an [`Error::InvalidInput`] that names the free motion,
+/// connected piece of the body; otherwise an [`Error::RigidMotion`] that names the free motion,
 /// the piece (when there are several) and the parts of Γ1 that constrain it.
 pub fn check_rigid_motions<const D: usize>(
     space: &LagrangeSpace<D>,
@@ -203,7 +203,7 @@ pub fn check_rigid_motions<const D: usize>(
                 names.join(", ")
             )
         };
-        return Err(Error::InvalidInput(format!(
+        return Err(Error::RigidMotion(format!(
             "{where_} can move rigidly ({}): {constraints}; normal compliance does not hold a \
              body that separates from the foundation and the velocity step (5.1) needs the \
              constraints of Γ1 to stop every rigid motion (clamp a part of Γ1, or prescribe \
