@@ -427,42 +427,55 @@ fn pressure_svg(
     root.present().unwrap();
 }
 
+/// Per row of a dragged block's history: the drag s of its top (1e-4 per unit time after
+/// t = 1) and Q/(μ P_(n−1)), the friction resultant against the bound of the step (None in the
+/// first step, which has no previous load).
+fn drag_ratios(history: &[BTreeMap<String, f64>], friction: f64) -> Vec<(f64, Option<f64>)> {
+    let drag_per_step = 1e-4;
+    let mut previous_load = f64::NAN;
+    history
+        .iter()
+        .map(|row| {
+            let ratio = row["tangential_force"] / (friction * previous_load);
+            previous_load = row["normal_force"];
+            let drag = drag_per_step * (row["t"] - 1.0).max(0.0);
+            (drag, ratio.is_finite().then_some(ratio))
+        })
+        .collect()
+}
+
+/// A ratio for a table: six decimals, or a dash where there is none.
+fn ratio_cell(ratio: Option<f64>) -> String {
+    ratio.map_or_else(|| "—".into(), |r| format!("{r:.6}"))
+}
+
 /// The sliding block: tangential resultant against μP as the drag grows. The friction bound of
 /// step n is p_τ at u_{n−1} (5.1), so once the whole face slips Q_n = μ P_{n−1} exactly.
 fn sliding() -> String {
     let template = std::fs::read_to_string(validation_dir().join("sliding.toml")).unwrap();
     let result = run(&template, &[], "sliding");
-    let friction = 0.3;
-    let drag_per_step = 1e-4;
     let mut table = String::from(
         "| step | drag s | P | Q | Q/(μ P_(n−1)) | reaction x + force x | stick | slip |\n|---|---|---|---|---|---|---|---|\n",
     );
-    let mut ratios = Vec::new();
-    let mut previous_load = f64::NAN;
-    for row in &result.history {
-        let ratio = row["tangential_force"] / (friction * previous_load);
-        let drag = drag_per_step * (row["t"] - 1.0).max(0.0);
-        if ratio.is_finite() {
-            ratios.push((drag, ratio));
-        }
+    let drags = drag_ratios(&result.history, 0.3);
+    for (row, &(drag, ratio)) in result.history.iter().zip(&drags) {
         writeln!(
             table,
             "| {} | {drag:.4} | {:.6e} | {:.6e} | {} | {:.1e} | {} | {} |",
             row["step"],
             row["normal_force"],
             row["tangential_force"],
-            if ratio.is_finite() {
-                format!("{ratio:.6}")
-            } else {
-                "—".into()
-            },
+            ratio_cell(ratio),
             row["reaction_y_max_x"] + row["force_x"],
             row["stick"],
             row["slip"]
         )
         .unwrap();
-        previous_load = row["normal_force"];
     }
+    let ratios: Vec<(f64, f64)> = drags
+        .iter()
+        .filter_map(|&(drag, ratio)| ratio.map(|r| (drag, r)))
+        .collect();
     writeln!(table, "\n({:.1} s)", result.seconds).unwrap();
     ratio_svg(
         &report_dir().join("sliding.svg"),
@@ -510,19 +523,11 @@ fn ratio_svg(path: &Path, title: &str, ratios: &[(f64, f64)]) {
 fn sliding3d() -> String {
     let template = std::fs::read_to_string(validation_dir().join("sliding3d.toml")).unwrap();
     let result = run(&template, &[], "sliding3d");
-    let friction = 0.3;
-    let drag_per_step = 1e-4;
     let mut table = String::from(
         "| step | drag s | P | Q | Q/(μ P_(n−1)) | direction of −F_τ | reaction + force (x, y) | stick | slip | Newton |\n|---|---|---|---|---|---|---|---|---|---|\n",
     );
-    let mut ratios = Vec::new();
-    let mut previous_load = f64::NAN;
-    for row in &result.history {
-        let ratio = row["tangential_force"] / (friction * previous_load);
-        let drag = drag_per_step * (row["t"] - 1.0).max(0.0);
-        if ratio.is_finite() {
-            ratios.push((drag, ratio));
-        }
+    let drags = drag_ratios(&result.history, 0.3);
+    for (row, &(drag, ratio)) in result.history.iter().zip(&drags) {
         let direction = if row["tangential_force"] > 0.0 {
             format!(
                 "{:.3}°",
@@ -537,11 +542,7 @@ fn sliding3d() -> String {
             row["step"],
             row["normal_force"],
             row["tangential_force"],
-            if ratio.is_finite() {
-                format!("{ratio:.6}")
-            } else {
-                "—".into()
-            },
+            ratio_cell(ratio),
             row["reaction_z_max_x"] + row["force_x"],
             row["reaction_z_max_y"] + row["force_y"],
             row["stick"],
@@ -549,8 +550,11 @@ fn sliding3d() -> String {
             row["newton_iterations"]
         )
         .unwrap();
-        previous_load = row["normal_force"];
     }
+    let ratios: Vec<(f64, f64)> = drags
+        .iter()
+        .filter_map(|&(drag, ratio)| ratio.map(|r| (drag, r)))
+        .collect();
     writeln!(table, "\n({:.1} s)", result.seconds).unwrap();
     ratio_svg(
         &report_dir().join("sliding3d.svg"),

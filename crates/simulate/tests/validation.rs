@@ -58,6 +58,19 @@ fn last_pressures(out: &Path) -> Vec<(f64, f64)> {
         .collect()
 }
 
+/// Asserts that each computed value (name, computed, Hertz's) lies within `tolerance`,
+/// relative, of Hertz's.
+fn assert_hertz(values: [(&str, f64, f64); 2], tolerance: f64) {
+    for (what, computed, expected) in values {
+        let error = (computed - expected).abs() / expected;
+        assert!(
+            error <= tolerance,
+            "{what}: {computed} vs Hertz {expected} ({:.2} %)",
+            100.0 * error
+        );
+    }
+}
+
 /// A block dragged along the foundation: the friction force grows while parts of Γ3 stick and
 /// saturates at μP once the whole face slips — with the friction bound of step n taken at
 /// u_{n−1} (5.1), exactly Q_n = μ P_{n−1}; the grip's reaction balances it at every step.
@@ -154,14 +167,10 @@ fn hertz_line_contact_on_the_coarse_mesh_matches_the_theory() {
     let hertz_width = (4.0 * load / (std::f64::consts::PI * plane_modulus)).sqrt();
     let hertz_peak = 2.0 * load / (std::f64::consts::PI * hertz_width);
     assert!((0.03..=0.05).contains(&hertz_width), "a/R = {hertz_width}");
-    for (what, computed, expected) in [("p0", peak, hertz_peak), ("a", half_width, hertz_width)] {
-        let error = (computed - expected).abs() / expected;
-        assert!(
-            error <= 0.01,
-            "{what}: {computed} vs Hertz {expected} ({:.2} %)",
-            100.0 * error
-        );
-    }
+    assert_hertz(
+        [("p0", peak, hertz_peak), ("a", half_width, hertz_width)],
+        0.01,
+    );
     // the zone from the zero crossing lies within a node spacing (h/2) of the ellipse's edge
     let zone = 0.5 * (last["zone_max"] - last["zone_min"]);
     assert!(
@@ -203,14 +212,10 @@ fn hertz_sphere_in_3d_on_the_coarse_mesh_matches_the_theory() {
         (0.05..=0.07).contains(&hertz_radius),
         "a/R = {hertz_radius}"
     );
-    for (what, computed, expected) in [("p0", peak, hertz_peak), ("a", radius, hertz_radius)] {
-        let error = (computed - expected).abs() / expected;
-        assert!(
-            error <= 0.015,
-            "{what}: {computed} vs Hertz {expected} ({:.2} %)",
-            100.0 * error
-        );
-    }
+    assert_hertz(
+        [("p0", peak, hertz_peak), ("a", radius, hertz_radius)],
+        0.015,
+    );
     // the load is reached in step 1; step 2, at rest, starts from v = 0
     assert_eq!(rows.len(), 2);
     assert!(
