@@ -2,11 +2,13 @@
 
 use crate::common;
 
+use contact_damage::error::StepDatum;
 use contact_damage::fem::space::LagrangeSpace;
 use contact_damage::model::contact::ContactNodes;
 use contact_damage::model::laws::LinearViscosity;
 use contact_damage::scheme::velocity::{VelocityData, VelocityOperator, VelocitySettings};
 use contact_damage::scheme::Simulation;
+use contact_damage::Error;
 use std::sync::Arc;
 
 fn message_of<const D: usize>(problem: contact_damage::scheme::Problem<D>) -> String {
@@ -99,6 +101,17 @@ fn simulation_rejects_invalid_law_parameters() {
     });
     let message = message_of(problem);
     assert!(message.contains("viscosity.shear"), "{message}");
+    // finite, but beyond the scale of double precision
+    let mut problem = common::problem(common::square(2), 1, common::quiet_data::<2>(), 1.0, 4);
+    problem.model.viscosity = Arc::new(LinearViscosity {
+        shear: 1e200,
+        bulk: 0.0,
+    });
+    let message = message_of(problem);
+    assert!(
+        message.contains("`viscosity.shear` = 1e200") && message.contains("beyond 1e150"),
+        "{message}"
+    );
 }
 
 #[test]
@@ -168,4 +181,45 @@ fn velocity_step_rejects_bad_data() {
         message.contains("friction bound") && message.contains("contact node"),
         "{message}"
     );
+    // finite data beyond the scale of double precision: a load, a pressure, a friction bound
+    // (at the limit itself all three are accepted)
+    let limit = contact_damage::algebra::linalg::MAGNITUDE_LIMIT;
+    for (size, expected) in [(limit, None), (1e200, Some("out of scale"))] {
+        for which in [StepDatum::Load, StepDatum::Contact] {
+            let mut load = vec![0.0; n];
+            let mut pressure = vec![0.0; contact.len()];
+            match which {
+                StepDatum::Load => load[3] = -size,
+                _ => pressure[1] = size,
+            }
+            let data = VelocityData {
+                load: &load,
+                normal_pressure: &pressure,
+                friction_bound: &pressure,
+                implicit_contact: None,
+                prescribed: None,
+            };
+            match (operator.solve(&data, &vec![0.0; n], &settings), expected) {
+                (Ok(_), None) => {}
+                (
+                    Err(Error::StepData {
+                        quantity,
+                        out_of_scale: true,
+                        message,
+                    }),
+                    Some(expected),
+                ) => {
+                    assert_eq!(quantity, which);
+                    assert!(
+                        message.contains(expected) && message.contains("1e200"),
+                        "{message}"
+                    );
+                }
+                (outcome, _) => panic!(
+                    "{which:?} of size {size:e}: {outcome:?}",
+                    outcome = outcome.err()
+                ),
+            }
+        }
+    }
 }

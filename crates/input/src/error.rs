@@ -97,8 +97,10 @@ impl InputError {
     /// `elasticity.shear_modulus`) at its key under `[laws]`, initial data out of range
     /// (`initial_damage at node 0 [0.0, 0.0]`) at theirs under `[loads]`, constraints of Γ1
     /// that leave the body free to move rigidly at `displacement` (the `[[displacement]]`
-    /// parts and the clamped sides or groups, which the message names). Other errors are
-    /// returned unchanged.
+    /// parts and the clamped sides or groups, which the message names; `domain.sides` in a
+    /// case), parts of Γ1 that disagree on a shared node at `displacement`, data of a step
+    /// not finite or out of the scale of double precision at the key they come from.
+    /// Other errors are returned unchanged.
     pub fn located(self, kind: FileKind, origin: &str) -> InputError {
         match self {
             InputError::Solver(contact_damage::Error::InvalidParameter {
@@ -120,7 +122,44 @@ impl InputError {
                 )
             }
             InputError::Solver(contact_damage::Error::RigidMotion(message)) => {
+                let key = match kind {
+                    FileKind::Problem => "displacement",
+                    FileKind::Case => "domain.sides",
+                };
+                kind.error(origin, key, message)
+            }
+            InputError::Solver(contact_damage::Error::ConflictingParts(message)) => {
                 kind.error(origin, "displacement", message)
+            }
+            InputError::Solver(contact_damage::Error::StepData {
+                quantity, message, ..
+            }) => {
+                use contact_damage::error::StepDatum;
+                let (key, source) = match (kind, quantity) {
+                    (FileKind::Problem, StepDatum::Load) => (
+                        "loads",
+                        "`loads.body_force`, `loads.traction` and `loads.traction_curve`",
+                    ),
+                    (FileKind::Problem, StepDatum::Contact) => (
+                        "loads.gap",
+                        "the gap, the displacement and `laws.contact.stiffness`",
+                    ),
+                    (FileKind::Problem, StepDatum::PrescribedVelocity) => {
+                        ("displacement", "the rate of a `[[displacement]]` component")
+                    }
+                    (FileKind::Case, StepDatum::Load) => (
+                        "exact",
+                        "the manufactured loads, derived from `exact` and `laws`",
+                    ),
+                    (FileKind::Case, StepDatum::Contact) => (
+                        "exact.gap",
+                        "the gap, the displacement and `laws.contact.stiffness`",
+                    ),
+                    (FileKind::Case, StepDatum::PrescribedVelocity) => {
+                        ("exact.u", "the rate of `exact.u` on a prescribed side")
+                    }
+                };
+                kind.error(origin, key, format!("{message}; it comes from {source}"))
             }
             other => other,
         }

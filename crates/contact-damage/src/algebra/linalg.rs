@@ -577,6 +577,23 @@ pub fn max_abs(values: &[f64]) -> f64 {
     lanes.into_iter().fold(0.0, f64::max)
 }
 
+/// The largest magnitude of a datum of a step (a load entry, a pressure, a friction bound, a
+/// prescribed velocity, a penetration) that the solvers accept. They form squared norms and
+/// energies of these vectors: √f64::MAX ≈ 1.3e154, and 1e150 leaves room for sums of 10⁸
+/// squares. Data beyond it are out of the scale of double precision, not a hard problem: the
+/// remedy is to change the problem's units.
+pub const MAGNITUDE_LIMIT: f64 = 1e150;
+
+/// Whether `value` is at most [`MAGNITUDE_LIMIT`] in magnitude (false for a NaN).
+pub fn within_scale(value: f64) -> bool {
+    value.abs() <= MAGNITUDE_LIMIT
+}
+
+/// The first index whose value is not [`within_scale`] (a NaN included).
+pub fn first_out_of_scale(values: &[f64]) -> Option<usize> {
+    values.iter().position(|&v| !within_scale(v))
+}
+
 /// `max |v_i|` over the indices with `excluded[i] == false`, as [`max_abs`] (bitwise the
 /// sequential fold over those indices).
 ///

@@ -168,7 +168,7 @@ impl<const D: usize> DirichletConstraints<D> {
     /// u_D(t) on the constrained unknowns (Cartesian, node-major, zero elsewhere).
     /// A non-finite value is an [`Error::NonFinite`] naming the part, node and component; two
     /// parts that give one unknown values further apart than [`AGREEMENT`] are an
-    /// [`Error::InvalidInput`] naming both parts, the node, the component and the time.
+    /// [`Error::ConflictingParts`] naming both parts, the node, the component and the time.
     pub fn values(&self, space: &LagrangeSpace<D>, time: f64) -> Result<Vec<f64>> {
         let mut values = vec![0.0; self.constrained.len()];
         for &(dof, owner) in &self.dofs {
@@ -206,7 +206,7 @@ impl<const D: usize> DirichletConstraints<D> {
                     .binary_search_by_key(&dof, |&(d, _)| d)
                     .map(|k| self.names[self.dofs[k].1].as_str())
                     .unwrap_or("?");
-                return Err(Error::InvalidInput(format!(
+                return Err(Error::ConflictingParts(format!(
                     "prescribed displacement parts `{owner}` and `{}` meet at node {node} \
                      {x:?} and give component {i} two values at t = {time}: {given} and \
                      {other_value} (prescribe the component in one of them, or make the values \

@@ -193,11 +193,16 @@ impl<const D: usize> LoadExpressions<D> {
                 None,
             )) as contact_damage::scheme::VectorField<D>
         });
+        let symbol = if curve.is_some() {
+            "f2 × traction_curve(t)"
+        } else {
+            "f2"
+        };
         let traction = traction.map(|traction| {
             Arc::new(BatchLoad::new(
                 &traction,
                 "loads.traction",
-                "f2",
+                symbol,
                 load_watch,
                 curve,
             )) as contact_damage::scheme::BoundaryVectorField<D>

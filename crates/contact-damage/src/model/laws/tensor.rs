@@ -1,7 +1,8 @@
 //! The tensor type shared by the constitutive laws (paper §2–3), its trace and deviator, the
-//! jets of smooth fields that the laws' divergences take, and the finiteness check of their
-//! parameters.
+//! jets of smooth fields that the laws' divergences take, and the check of their parameters
+//! (finite, and within the scale of double precision).
 
+use crate::algebra::linalg::MAGNITUDE_LIMIT;
 use crate::error::{Error, Result};
 use nalgebra::{SMatrix, SVector};
 
@@ -16,11 +17,21 @@ pub(super) fn deviator<const D: usize>(tensor: &Tensor<D>) -> Tensor<D> {
     tensor - Tensor::<D>::identity() * (trace(tensor) / D as f64)
 }
 
+/// A law parameter must be finite and at most [`MAGNITUDE_LIMIT`] in magnitude: stresses and
+/// energies multiply it with strains and square the products.
 pub(super) fn check_finite(name: &str, value: f64) -> Result<()> {
-    if value.is_finite() {
-        Ok(())
-    } else {
+    if !value.is_finite() {
         Err(Error::parameter(name, value, "must be finite"))
+    } else if value.abs() > MAGNITUDE_LIMIT {
+        Err(Error::parameter(
+            name,
+            value,
+            format!(
+                "is beyond {MAGNITUDE_LIMIT:e} in magnitude, out of the scale of double precision (the stresses and energies square it; change the problem's units)"
+            ),
+        ))
+    } else {
+        Ok(())
     }
 }
 

@@ -4,8 +4,8 @@
 
 use super::operator::VelocityOperator;
 use super::types::{VelocityData, VelocitySettings, VelocitySolution};
-use crate::algebra::linalg::max_abs;
-use crate::error::{Error, Result};
+use crate::algebra::linalg::{first_out_of_scale, max_abs, within_scale, MAGNITUDE_LIMIT};
+use crate::error::{Error, Result, StepDatum};
 use crate::model::contact::ContactStatus;
 
 impl<const D: usize> VelocityOperator<D> {
@@ -87,23 +87,52 @@ impl<const D: usize> VelocityOperator<D> {
             )));
         }
         if let Some(i) = data.load.iter().position(|v| !v.is_finite()) {
-            return Err(Error::NonFinite(format!(
-                "velocity step load vector at dof {i} (node {}, component {})",
-                i / D,
-                i % D
-            )));
+            return Err(non_finite(
+                StepDatum::Load,
+                format!(
+                    "velocity step load vector at dof {i} (node {}, component {})",
+                    i / D,
+                    i % D
+                ),
+            ));
         }
         for (name, values) in [
             ("normal pressure", data.normal_pressure),
             ("friction bound", data.friction_bound),
         ] {
             if let Some(k) = values.iter().position(|v| !v.is_finite() || *v < 0.0) {
-                return Err(Error::NonFinite(format!(
-                    "{name} {} at contact node {} ({:?}) must be finite and ≥ 0",
+                return Err(non_finite(
+                    StepDatum::Contact,
+                    format!(
+                        "{name} {} at contact node {} ({:?}) must be finite and ≥ 0",
+                        values[k],
+                        self.contact.nodes[k],
+                        self.space.node(self.contact.nodes[k])
+                    ),
+                ));
+            }
+        }
+        if let Some(i) = first_out_of_scale(data.load) {
+            return Err(out_of_scale(
+                StepDatum::Load,
+                format!("the load at node {} (component {})", i / D, i % D),
+                data.load[i],
+            ));
+        }
+        for (name, values) in [
+            ("normal pressure", data.normal_pressure),
+            ("friction bound", data.friction_bound),
+        ] {
+            if let Some(k) = first_out_of_scale(values) {
+                return Err(out_of_scale(
+                    StepDatum::Contact,
+                    format!(
+                        "the {name} at contact node {} ({:?})",
+                        self.contact.nodes[k],
+                        self.space.node(self.contact.nodes[k])
+                    ),
                     values[k],
-                    self.contact.nodes[k],
-                    self.space.node(self.contact.nodes[k])
-                )));
+                ));
             }
         }
         if let Some(implicit) = &data.implicit_contact {
@@ -125,12 +154,26 @@ impl<const D: usize> VelocityOperator<D> {
                 .iter()
                 .position(|r| !r.is_finite())
             {
-                return Err(Error::NonFinite(format!(
-                    "penetration u_ν − g = {} at contact node {} ({:?})",
+                return Err(non_finite(
+                    StepDatum::Contact,
+                    format!(
+                        "penetration u_ν − g = {} at contact node {} ({:?})",
+                        implicit.previous_penetration[k],
+                        self.contact.nodes[k],
+                        self.space.node(self.contact.nodes[k])
+                    ),
+                ));
+            }
+            if let Some(k) = first_out_of_scale(&implicit.previous_penetration) {
+                return Err(out_of_scale(
+                    StepDatum::Contact,
+                    format!(
+                        "the penetration u_ν − g at contact node {} ({:?})",
+                        self.contact.nodes[k],
+                        self.space.node(self.contact.nodes[k])
+                    ),
                     implicit.previous_penetration[k],
-                    self.contact.nodes[k],
-                    self.space.node(self.contact.nodes[k])
-                )));
+                ));
             }
         }
         Ok(())
@@ -157,13 +200,28 @@ impl<const D: usize> VelocityOperator<D> {
                 .filter(|(_, &c)| c)
             {
                 if !prescribed[dof].is_finite() {
-                    return Err(Error::NonFinite(format!(
-                        "prescribed velocity {} at node {} ({:?}), component {}",
+                    return Err(non_finite(
+                        StepDatum::PrescribedVelocity,
+                        format!(
+                            "prescribed velocity {} at node {} ({:?}), component {}",
+                            prescribed[dof],
+                            dof / D,
+                            self.space.node(dof / D),
+                            dof % D
+                        ),
+                    ));
+                }
+                if !within_scale(prescribed[dof]) {
+                    return Err(out_of_scale(
+                        StepDatum::PrescribedVelocity,
+                        format!(
+                            "the prescribed velocity at node {} ({:?}), component {}",
+                            dof / D,
+                            self.space.node(dof / D),
+                            dof % D
+                        ),
                         prescribed[dof],
-                        dof / D,
-                        self.space.node(dof / D),
-                        dof % D
-                    )));
+                    ));
                 }
                 self.prescribed_cartesian[dof] = prescribed[dof];
             }
@@ -212,5 +270,25 @@ impl<const D: usize> VelocityOperator<D> {
                 }
             })
             .collect()
+    }
+}
+
+/// [`Error::StepData`] for a non-finite `quantity`, described by `what`.
+fn non_finite(quantity: StepDatum, what: String) -> Error {
+    Error::StepData {
+        quantity,
+        out_of_scale: false,
+        message: format!("non-finite value: {what}"),
+    }
+}
+
+/// [`Error::StepData`] for `what` = `value` beyond [`MAGNITUDE_LIMIT`].
+fn out_of_scale(quantity: StepDatum, what: String, value: f64) -> Error {
+    Error::StepData {
+        quantity,
+        out_of_scale: true,
+        message: format!(
+            "out of scale: {what} is {value:e}, beyond {MAGNITUDE_LIMIT:e} in magnitude, where the squared norms and energies of the velocity step overflow; the data are out of the scale of double precision (change the problem's units)"
+        ),
     }
 }
