@@ -12,6 +12,7 @@ use crate::manufactured::data::{
 };
 use crate::manufactured::{value, ExactSolution, Laws};
 use crate::InputError;
+use contact_damage::algebra::linalg::MAGNITUDE_LIMIT;
 use contact_damage::fem::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::{
     Data, PointScalarField, PrescribedDisplacement, Problem, SchemeSettings,
@@ -444,6 +445,17 @@ fn build_domain<const D: usize>(
         &domain.sides,
         &mut sides,
     )?;
+    if !sides
+        .iter()
+        .flatten()
+        .any(|&part| part == BoundaryPart::Dirichlet)
+    {
+        return Err(case_error(
+            origin,
+            "domain.sides",
+            "no side is `clamped` and no `[[displacement]]` prescribes one: the velocity step (5.1) needs meas(Γ1) > 0 (Korn's inequality), else the body can move rigidly",
+        ));
+    }
     Ok((
         Domain::Box {
             lower: std::array::from_fn(|i| domain.lower[i]),
@@ -762,6 +774,16 @@ impl<const D: usize> Case<D> {
                                 origin,
                                 "exact.gap",
                                 format!("g = {gap} is not finite on Γ3 {}", at()),
+                            ));
+                        }
+                        if gap.abs() > MAGNITUDE_LIMIT {
+                            return Err(case_error(
+                                origin,
+                                "exact.gap",
+                                format!(
+                                    "g = {gap:e} on Γ3 {} is beyond {MAGNITUDE_LIMIT:e} in magnitude, out of the scale of double precision (change the case's units)",
+                                    at()
+                                ),
                             ));
                         }
                         let xi: Vec<f64> = self

@@ -9,6 +9,7 @@ use crate::error_norms::{ErrorComponents, ErrorTracker, Reference};
 use crate::manufactured::data::ExactPrograms;
 use crate::output::{finite, finite_or_null, finite_or_null_each};
 use crate::InputError;
+use contact_damage::error::StepDatum;
 use contact_damage::fem::quality::shape_regularity;
 use contact_damage::scheme::{RunSummary, Simulation, State};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -592,8 +593,9 @@ pub fn reference_states<const D: usize>(
 /// A failed run of `simulation` whose time step lies above the stability limit of the explicit
 /// terms of (5.1) ([`contact_damage::scheme::stability`]) is reported as such, naming the case and the
 /// level; the solver's own error (typically a Newton or friction solve that no longer
-/// converges) follows as the symptom. Other failures pass unchanged, located at their key in
-/// the case file when the solver names one ([`InputError::located`]).
+/// converges) follows as the symptom. Other failures (and, whatever the step, loads that are
+/// not finite or out of scale and laws that leave their range) pass unchanged, located at their key in the case file when
+/// the solver names one ([`InputError::located`]).
 fn explain_failure<const D: usize>(
     case: &Case<D>,
     simulation: &mut Simulation<D>,
@@ -601,8 +603,17 @@ fn explain_failure<const D: usize>(
     error: contact_damage::Error,
 ) -> InputError {
     let step = simulation.time_step();
+    // loads that cannot be used and laws out of their range are the cause, not a symptom of an
+    // unstable step (a contact pressure out of scale may be one: it grows with u_(n−1))
+    let data = matches!(
+        error,
+        contact_damage::Error::StepData {
+            quantity: StepDatum::Load | StepDatum::PrescribedVelocity,
+            ..
+        } | contact_damage::Error::InvalidParameter { .. }
+    );
     match simulation.step_limit() {
-        Ok(limit) if step > limit.time_step => InputError::InvalidInput(format!(
+        Ok(limit) if step > limit.time_step && !data => InputError::InvalidInput(format!(
             "case `{}`, level with {cells} cells and {} steps: the time step k = {step:.3e} exceeds the stability limit k_max = {:.3e} of the explicit terms of (5.1) (λ_max(H⁻¹B) = {:.3e}); lower `laws.contact.stiffness` or the elasticity against the viscosity, or take more steps (the solver stopped with: {error})",
             case.origin,
             simulation.steps(),

@@ -181,7 +181,7 @@ pub fn execute<const D: usize>(
         failed.extend(
             outcomes
                 .into_iter()
-                .filter_map(|(id, outcome)| outcome.err().map(|e| format!("run {id}: {e}"))),
+                .filter_map(|(id, outcome)| outcome.err().map(|e| (id, e.to_string()))),
         );
     }
     bar.finish_and_clear();
@@ -192,7 +192,65 @@ pub fn execute<const D: usize>(
             "{} of {} runs failed:\n  {}",
             failed.len(),
             executed.computed,
-            failed.join("\n  ")
+            failures_by_message(&failed).join("\n  ")
         )))
+    }
+}
+
+/// The failures (run id, message) grouped by message, in the order of their first run: "run
+/// A: message" for one run, "runs A, B and C: message" for a few, the first three and how many
+/// more for many (a case that cannot run fails every run the same way).
+fn failures_by_message(failed: &[(String, String)]) -> Vec<String> {
+    let mut groups: Vec<(&str, Vec<&str>)> = Vec::new();
+    for (id, message) in failed {
+        match groups.iter_mut().find(|(known, _)| *known == message) {
+            Some((_, ids)) => ids.push(id),
+            None => groups.push((message, vec![id])),
+        }
+    }
+    groups
+        .into_iter()
+        .map(|(message, ids)| match ids.as_slice() {
+            [one] => format!("run {one}: {message}"),
+            [first @ .., last] if ids.len() <= 4 => {
+                format!("runs {} and {last}: {message}", first.join(", "))
+            }
+            _ => format!(
+                "runs {} and {} more: {message}",
+                ids[..3].join(", "),
+                ids.len() - 3
+            ),
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::failures_by_message;
+
+    fn failures(list: &[(&str, &str)]) -> Vec<(String, String)> {
+        list.iter()
+            .map(|(id, message)| (id.to_string(), message.to_string()))
+            .collect()
+    }
+
+    #[test]
+    fn run_failures_with_one_message_are_listed_once() {
+        let same: Vec<(String, String)> = (0..12)
+            .map(|i| {
+                (
+                    format!("r{i}"),
+                    "case `c.toml`, key `exact`: bad".to_string(),
+                )
+            })
+            .collect();
+        assert_eq!(
+            failures_by_message(&same),
+            ["runs r0, r1, r2 and 9 more: case `c.toml`, key `exact`: bad"]
+        );
+        assert_eq!(
+            failures_by_message(&failures(&[("a", "x"), ("b", "y"), ("c", "x"), ("d", "x")])),
+            ["runs a, c and d: x", "run b: y"]
+        );
     }
 }
