@@ -9,6 +9,7 @@ mod process;
 mod baselines;
 mod case_fuzz;
 mod cases;
+mod catalogue;
 mod cli;
 mod docs;
 mod negative_controls;

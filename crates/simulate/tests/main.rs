@@ -8,6 +8,7 @@ mod guide;
 #[path = "../../../tests/process/mod.rs"]
 mod process;
 
+mod catalogue;
 mod convergence;
 mod docs;
 mod gmsh_example;
