@@ -16,10 +16,26 @@
 //! minutes): the table shows the run with the median total, and the ratio of data + errors to
 //! the two solves as the median over the repeats with their range. A benchmark, not a test:
 //! nothing is asserted.
+//!
+//! ```text
+//! cargo run --release -p verify --example bench_harness -- --limit [OUT.md [REPEATS]]
+//! ```
+//!
+//! writes `reports/benchmark_limit.md` instead: one thread, `zones2d` at 64, 128 and 256 cells
+//! and `zones3d` at 12, 16 and 24, each run split as above beside the limit of this machine
+//! for it, measured by micro-benchmarks in the same process right after the run: per step, two
+//! triangular solves with the factor of (5.1), two with the factor of (5.2) (M/k + κK), and one
+//! pass of the data over the quadrature points (f0 and q, the exact fields and the laws, at
+//! every cell quadrature point of the loads, per step time, evaluated for a block of step
+//! times per call as the run does — the one pass that loads and errors would share if fused).
+//! Each kernel is timed as the fastest of several calls.
 
+use contact_damage::algebra::linalg::CholeskySolver;
 use contact_damage::model::fields::{
     BatchBoundaryScalarField, BatchBoundaryVectorField, BatchScalarField, BatchVectorField,
 };
+use contact_damage::scheme::damage::assemble_damage_matrix;
+use contact_damage::scheme::loads::LoadQuadrature;
 use contact_damage::scheme::{Data, Simulation};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::Arc;
@@ -131,6 +147,77 @@ struct Row {
     error_total: f64,
     /// (data + errors) / ((5.1) + (5.2)) of each repeat, ascending.
     ratios: Vec<f64>,
+    /// The kernels of the limit, when measured.
+    limit: Option<Limit>,
+}
+
+/// The kernels of the limit of one run, each the fastest of several calls.
+#[derive(Clone, Copy)]
+struct Limit {
+    /// Two triangular solves with the factor of (5.1).
+    velocity_solve: Duration,
+    /// Two triangular solves with the factor of (5.2).
+    damage_solve: Duration,
+    /// f0 and q at every cell quadrature point of the loads, per step time.
+    data_pass: Duration,
+}
+
+impl Limit {
+    /// `steps` × (the three kernels).
+    fn total(&self, steps: usize) -> Duration {
+        (self.velocity_solve + self.damage_solve + self.data_pass) * steps as u32
+    }
+}
+
+/// The fastest of `calls` calls of `kernel`.
+fn fastest(calls: usize, mut kernel: impl FnMut()) -> Duration {
+    (0..calls)
+        .map(|_| {
+            let started = Instant::now();
+            kernel();
+            started.elapsed()
+        })
+        .min()
+        .expect("at least one call")
+}
+
+/// The limit of `simulation`'s run (after it): see the module documentation.
+fn measure_limit<const D: usize>(
+    simulation: &Simulation<D>,
+    data: &Data<D>,
+    diffusion: f64,
+) -> Limit {
+    let space = simulation.space();
+    let size = simulation.velocity_operator().size();
+    let rhs: Vec<f64> = (0..size).map(|i| ((i % 7) as f64) - 3.0).collect();
+    let velocity = simulation.velocity_operator().solver();
+    let velocity_solve = fastest(9, || {
+        std::hint::black_box(velocity.solve(&rhs).expect("a velocity solve"));
+    });
+    let matrix = assemble_damage_matrix(space, 1.0 / simulation.time_step(), diffusion)
+        .expect("the damage matrix");
+    let mut damage = CholeskySolver::analyse(&matrix, "damage").expect("its analysis");
+    damage.factorize(&matrix).expect("its factor");
+    let rhs: Vec<f64> = (0..space.num_nodes())
+        .map(|i| ((i % 5) as f64) - 2.0)
+        .collect();
+    let damage_solve = fastest(9, || {
+        std::hint::black_box(damage.solve(&rhs).expect("a damage solve"));
+    });
+    // as the run evaluates them: a block of step times per call (the time-independent values
+    // of a point are read once per block), per time
+    let quadrature = LoadQuadrature::new(space);
+    let times: Vec<f64> = (1..=quadrature.times_per_block(data))
+        .map(|n| n as f64 * simulation.time_step())
+        .collect();
+    let data_pass = fastest(3, || {
+        std::hint::black_box(quadrature.bulk_data(data, &times));
+    }) / times.len() as u32;
+    Limit {
+        velocity_solve,
+        damage_solve,
+        data_pass,
+    }
 }
 
 impl Row {
@@ -147,9 +234,10 @@ fn median_run<const D: usize>(
     cells: usize,
     threads: usize,
     repeats: usize,
+    with_limit: bool,
 ) -> Row {
     let mut runs: Vec<Row> = (0..repeats)
-        .map(|_| run(case, name, cells, threads))
+        .map(|_| run(case, name, cells, threads, with_limit))
         .collect();
     let mut ratios: Vec<f64> = runs.iter().map(Row::ratio).collect();
     ratios.sort_by(f64::total_cmp);
@@ -159,7 +247,13 @@ fn median_run<const D: usize>(
     median
 }
 
-fn run<const D: usize>(case: &Case<D>, name: &'static str, cells: usize, threads: usize) -> Row {
+fn run<const D: usize>(
+    case: &Case<D>,
+    name: &'static str,
+    cells: usize,
+    threads: usize,
+    with_limit: bool,
+) -> Row {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -168,6 +262,7 @@ fn run<const D: usize>(case: &Case<D>, name: &'static str, cells: usize, threads
         let started = Instant::now();
         let nanos = Arc::new(AtomicU64::new(0));
         let mut problem = case.problem(cells, 1, cells).expect("the problem");
+        let (plain_data, diffusion) = (problem.data.clone(), problem.model.damage_diffusion);
         problem.data = timed(problem.data, &nanos);
         let mut simulation = Simulation::new(problem).expect("the simulation");
         let setup = started.elapsed();
@@ -197,6 +292,8 @@ fn run<const D: usize>(case: &Case<D>, name: &'static str, cells: usize, threads
         write_csv_atomic(&folder.join("errors.csv"), &[result]).expect("CSV written");
         std::fs::remove_dir_all(&folder).expect("the temporary folder removed");
         let output = clock.elapsed();
+        let total = started.elapsed();
+        let limit = with_limit.then(|| measure_limit(&simulation, &plain_data, diffusion));
         let timings = *simulation.timings();
         let data = Duration::from_nanos(nanos.load(Ordering::Relaxed));
         Row {
@@ -212,9 +309,10 @@ fn run<const D: usize>(case: &Case<D>, name: &'static str, cells: usize, threads
             damage: timings.damage,
             errors,
             output,
-            total: started.elapsed(),
+            total,
             error_total: result.total,
             ratios: Vec::new(),
+            limit,
         }
     })
 }
@@ -230,10 +328,20 @@ fn case<const D: usize>(name: &str) -> Case<D> {
 }
 
 fn main() {
-    let out = std::env::args()
-        .nth(1)
-        .unwrap_or_else(|| "reports/benchmark_harness.md".to_string());
-    let repeats: usize = match std::env::args().nth(2).map(|a| a.parse()) {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let limit = args.first().is_some_and(|a| a == "--limit");
+    if limit {
+        args.remove(0);
+    }
+    let out = args.first().cloned().unwrap_or_else(|| {
+        if limit {
+            "reports/benchmark_limit.md"
+        } else {
+            "reports/benchmark_harness.md"
+        }
+        .to_string()
+    });
+    let repeats: usize = match args.get(1).map(|a| a.parse()) {
         None => 3,
         Some(Ok(n)) if n > 0 => n,
         Some(_) => {
@@ -246,15 +354,100 @@ fn main() {
     let zones2d = case::<2>("zones2d");
     let zones3d = case::<3>("zones3d");
     let mut rows = Vec::new();
-    for threads in [1, all] {
-        for cells in [32, 64, 128] {
-            rows.push(median_run(&zones2d, "zones2d", cells, threads, repeats));
+    let (threads_list, cells_2d, cells_3d): (Vec<usize>, &[usize], &[usize]) = if limit {
+        (vec![1], &[64, 128, 256], &[12, 16, 24])
+    } else {
+        (vec![1, all], &[32, 64, 128], &[12])
+    };
+    for &threads in &threads_list {
+        for &cells in cells_2d {
+            rows.push(median_run(
+                &zones2d, "zones2d", cells, threads, repeats, limit,
+            ));
             eprintln!("zones2d {cells} cells, {threads} threads done");
         }
-        rows.push(median_run(&zones3d, "zones3d", 12, threads, repeats));
-        eprintln!("zones3d 12 cells, {threads} threads done");
+        for &cells in cells_3d {
+            rows.push(median_run(
+                &zones3d, "zones3d", cells, threads, repeats, limit,
+            ));
+            eprintln!("zones3d {cells} cells, {threads} threads done");
+        }
     }
-    let seconds = |d: Duration| format!("{:.3}", d.as_secs_f64());
+    let mut text = if limit {
+        limit_table(&rows, repeats)
+    } else {
+        split_table(&rows, repeats)
+    };
+    text.push_str(&format!(
+        "\nMachine: {}, {all} threads available; other processes may share them (wall times; \
+         load average at start {load}).  \nDate: {started}.\n",
+        report::cpu_model()
+    ));
+    write_atomic(std::path::Path::new(&out), text.as_bytes())
+        .unwrap_or_else(|e| panic!("cannot write {out}: {e}"));
+    print!("{text}");
+    eprintln!("wrote {out}");
+}
+
+fn seconds(duration: Duration) -> String {
+    format!("{:.3}", duration.as_secs_f64())
+}
+
+/// The table of `reports/benchmark_limit.md`.
+fn limit_table(rows: &[Row], repeats: usize) -> String {
+    let mut text = format!(
+        "# A verification run against the limit of the machine\n\n\
+         Generated by `cargo run --release -p verify --example bench_harness -- --limit` (l = 1, \
+         k = h: N = cells, T = 1, one thread). Wall seconds of the run with the median total of \
+         {repeats}, split as in `benchmark_harness.md` (*setup* the mesh, space, operators and \
+         their analyses, *data* the time inside the manufactured data fields, *assembly* the \
+         rest of the load vectors, *errors* the error integrals; *total* includes the setup). \
+         The limit is measured in the same process after the run, each kernel the fastest of \
+         several calls: *tri (5.1)* and *tri (5.2)* two triangular solves with the factor of \
+         each step, *pass* the data f0 and q at every cell quadrature point per step time, \
+         evaluated for a block of step times per call as the run does (the one pass over the \
+         points that loads and errors would share); *limit* = N × (tri (5.1) + tri (5.2) + \
+         pass), in seconds like the run; *× limit* = total / limit, and per part: (5.1) / (N tri \
+         (5.1)), (5.2) / (N tri (5.2)), (data + assembly + errors) / (N pass); *step / tri* = \
+         total / (N tri (5.1)), a whole step against two triangular solves with the velocity \
+         factor.\n\n\
+         | case | N | unknowns | setup | data | assembly | (5.1) | (5.2) | errors | output | total | tri (5.1) ms | tri (5.2) ms | pass ms | limit | × limit | (5.1) × | (5.2) × | data + assembly + errors × | step / tri |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    let ms = |d: Duration| format!("{:.3}", d.as_secs_f64() * 1e3);
+    let ratio = |a: Duration, b: Duration| format!("{:.1}", a.as_secs_f64() / b.as_secs_f64());
+    for row in rows {
+        let limit = row.limit.expect("measured with the run");
+        let steps = row.steps as u32;
+        text.push_str(&format!(
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+            row.case,
+            row.steps,
+            row.unknowns,
+            seconds(row.setup),
+            seconds(row.data),
+            seconds(row.assembly),
+            seconds(row.velocity),
+            seconds(row.damage),
+            seconds(row.errors),
+            seconds(row.output),
+            seconds(row.total),
+            ms(limit.velocity_solve),
+            ms(limit.damage_solve),
+            ms(limit.data_pass),
+            seconds(limit.total(row.steps)),
+            ratio(row.total, limit.total(row.steps)),
+            ratio(row.velocity, limit.velocity_solve * steps),
+            ratio(row.damage, limit.damage_solve * steps),
+            ratio(row.data + row.assembly + row.errors, limit.data_pass * steps),
+            ratio(row.total, limit.velocity_solve * steps),
+        ));
+    }
+    text
+}
+
+/// The table of `reports/benchmark_harness.md`.
+fn split_table(rows: &[Row], repeats: usize) -> String {
     let mut text = format!(
         "# Benchmark of a verification run\n\n\
          Generated by `cargo run --release -p verify --example bench_harness` (l = 1, k = h: \
@@ -269,7 +462,7 @@ fn main() {
          | case | cells | N | threads | unknowns | setup | data | assembly | (5.1) | (5.2) | errors | output | total | data + errors | (5.1) + (5.2) | ratio | E(h, k) |\n\
          |---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
-    for row in &rows {
+    for row in rows {
         text.push_str(&format!(
             "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.2} ({:.2}–{:.2}) | {:.4e} |\n",
             row.case,
@@ -297,13 +490,5 @@ fn main() {
             row.error_total,
         ));
     }
-    text.push_str(&format!(
-        "\nMachine: {}, {all} threads available; other processes may share them (wall times; \
-         load average at start {load}).  \nDate: {started}.\n",
-        report::cpu_model()
-    ));
-    write_atomic(std::path::Path::new(&out), text.as_bytes())
-        .unwrap_or_else(|e| panic!("cannot write {out}: {e}"));
-    print!("{text}");
-    eprintln!("wrote {out}");
+    text
 }
