@@ -4,7 +4,7 @@
 //! during the runs. Every generated case must be refused with exit status 2 (no panic, no
 //! signal, no verdict), within a minute, with a message that names the case file and the key.
 
-use crate::process::output_within_a_minute;
+use crate::process::{output_within_a_minute, refusal_fault};
 use std::path::Path;
 use std::process::Command;
 
@@ -101,19 +101,10 @@ fn check(dir: &Path, index: usize, input: &Hostile) -> Option<String> {
         .arg(dir.join(format!("out-{index}")))
         .env("CI", "1");
     let output = output_within_a_minute(command);
-    let message = String::from_utf8_lossy(&output.stderr).into_owned();
     let expected = format!("case `{}`, key `{}`", case.display(), input.key);
-    let wrong = if output.status.code() != Some(2) {
-        format!("exit status {:?}", output.status.code())
-    } else if !message.contains(&expected) {
-        format!("no `{expected}`")
-    } else if message.contains("panicked") || message.contains("did not converge") {
-        "a panic or a stagnating solver".to_string()
-    } else {
-        return None;
-    };
+    let fault = refusal_fault(&output, 2, &expected)?;
     Some(format!(
-        "[{}] {} → {}: {wrong}\n  {message}",
+        "[{}] {} → {}: {fault}",
         input.class, input.from, input.to
     ))
 }

@@ -1,5 +1,6 @@
-//! Standard streams and time limits for the end-to-end tests that run the programs (shared by
-//! `tests/cli.rs` and `crates/simulate/tests/hostile.rs`).
+//! Standard streams, time limits and the judgement of a refusal for the end-to-end tests that
+//! run the programs (shared by `tests/cli.rs`, `tests/catalogue.rs` and
+//! `crates/simulate/tests/hostile.rs`, `catalogue.rs`).
 #![allow(dead_code)]
 
 use std::process::{Command, Output, Stdio};
@@ -40,4 +41,21 @@ pub fn output_within_a_minute(mut command: Command) -> Output {
         std::thread::sleep(Duration::from_millis(50));
     }
     child.wait_with_output().unwrap()
+}
+
+/// What is wrong with `output` as the refusal of a bad input, if anything: it must end with
+/// exit status `status`, name `expected` (the file and the key) on standard error, and neither
+/// panic nor report a solver that did not converge.
+pub fn refusal_fault(output: &Output, status: i32, expected: &str) -> Option<String> {
+    let message = String::from_utf8_lossy(&output.stderr);
+    let fault = if output.status.code() != Some(status) {
+        format!("exit status {:?}", output.status.code())
+    } else if !message.contains(expected) {
+        format!("no `{expected}`")
+    } else if message.contains("panicked") || message.contains("did not converge") {
+        "a panic or a stagnating solver".to_string()
+    } else {
+        return None;
+    };
+    Some(format!("{fault}\n  {message}"))
 }

@@ -8,14 +8,14 @@
 //! file and the key the input came from.
 
 use crate::common::scratch;
-use crate::process::output_within_a_minute;
+use crate::process::{output_within_a_minute, refusal_fault};
 use std::path::Path;
 use std::process::Command;
 
 const EXAMPLE: &str = include_str!("../examples/rectangle_2d.toml");
 
 /// The 2D example on an 8 × 4 mesh with 8 steps of 0.05, saved every 4.
-fn small_example() -> String {
+pub fn small_example() -> String {
     let text = EXAMPLE
         .replace("cells = [40, 20]", "cells = [8, 4]")
         .replace("steps = 250", "steps = 8")
@@ -263,27 +263,14 @@ fn check(dir: &Path, index: usize, input: &Hostile, base: &str) -> Option<String
         .arg(dir.join(format!("out-{index}")))
         .arg("--quiet");
     let output = output_within_a_minute(command);
-    let message = String::from_utf8_lossy(&output.stderr).into_owned();
     let expected = format!("problem file `{}`, key `{}`", problem.display(), input.key);
-    let wrong = if output.status.code() != Some(1) {
-        format!("exit status {:?}", output.status.code())
-    } else if !message.contains(&expected) {
-        format!("no `{expected}`")
-    } else if message.contains("panicked") || message.contains("did not converge") {
-        "a panic or a stagnating solver".to_string()
-    } else {
-        return None;
-    };
+    let fault = refusal_fault(&output, 1, &expected)?;
     let edits: Vec<String> = input
         .edits
         .iter()
         .map(|(from, to)| format!("{from} → {to}"))
         .collect();
-    Some(format!(
-        "[{}] {}: {wrong}\n  {message}",
-        input.class,
-        edits.join("; ")
-    ))
+    Some(format!("[{}] {}: {fault}", input.class, edits.join("; ")))
 }
 
 #[test]
