@@ -748,3 +748,65 @@ fn verify_names_the_key_of_a_law_that_leaves_its_range_during_the_runs() {
         "{stderr}"
     );
 }
+
+/// `--set NAME=VALUE` changes a constant of the case before anything runs (the case is renamed
+/// so that its reports do not pass for the case's own); an unknown constant or a value that is
+/// not a number is refused naming the option and the constants the case has.
+#[test]
+fn set_changes_a_constant_of_the_case_and_refuses_unknown_ones() {
+    let dir = scratch("set");
+    for (assignment, reason) in [
+        (
+            "x_slipp=0.5",
+            "no constant `x_slipp` (its constants: x_bound, x_slip)",
+        ),
+        ("x_slip=half", "`half` is not a finite number"),
+        ("x_slip", "write NAME=VALUE"),
+    ] {
+        let stderr = refused(
+            &["--case", "zones2d", "--set", assignment],
+            &dir.join("refused"),
+        );
+        assert!(
+            stderr.contains(&format!("--set `{assignment}`")) && stderr.contains(reason),
+            "{stderr}"
+        );
+    }
+    let total_error = |flags: &[&str], out: &str| {
+        let output = verify()
+            .args([
+                "--case",
+                "zones2d",
+                "--studies",
+                "h",
+                "--levels",
+                "2",
+                "--out",
+            ])
+            .arg(dir.join(out))
+            .args(flags)
+            .env("CI", "1")
+            .output()
+            .unwrap();
+        // a verdict (two coarse levels: not yet certified), not an input error (status 2)
+        assert_ne!(
+            output.status.code(),
+            Some(2),
+            "{}",
+            String::from_utf8_lossy(&output.stderr)
+        );
+        let json: serde_json::Value = serde_json::from_str(
+            &std::fs::read_to_string(dir.join(out).join("summary.json")).unwrap(),
+        )
+        .unwrap();
+        (
+            json["case"].as_str().unwrap().to_string(),
+            std::fs::read_to_string(dir.join(out).join("errors.csv")).unwrap(),
+        )
+    };
+    let (name, errors) = total_error(&[], "as-written");
+    let (set_name, set_errors) = total_error(&["--set", "x_slip=0.5"], "set");
+    assert_eq!(name, "zones2d");
+    assert_eq!(set_name, "zones2d-x_slip0.5");
+    assert_ne!(errors, set_errors, "the constant did not reach the runs");
+}

@@ -127,6 +127,10 @@ pub struct StudyArgs {
     /// there (or that changed since); other files are never touched.
     #[arg(long)]
     pub overwrite: bool,
+    /// Set a constant of the case's `[constants]` table, NAME=VALUE (repeatable); the case is
+    /// renamed `<case>-<NAME><VALUE>`, so its default output folder differs from the case's.
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    pub set: Vec<String>,
 }
 
 /// The subcommands for studies beyond one process.
@@ -266,14 +270,52 @@ pub fn load_case(args: &StudyArgs) -> Result<(String, String), InputError> {
             }
         },
     };
-    if let Some((builtin, text)) = BUILT_IN_CASES.iter().find(|(n, _)| *n == name) {
-        return Ok((text.to_string(), format!("built-in:{builtin}")));
+    let (mut text, mut origin) =
+        if let Some((builtin, text)) = BUILT_IN_CASES.iter().find(|(n, _)| *n == name) {
+            (text.to_string(), format!("built-in:{builtin}"))
+        } else {
+            let path = PathBuf::from(&name);
+            contact_input::regular::check_regular_file(&path, "case file")?;
+            let text = std::fs::read_to_string(&path)
+                .map_err(|e| InputError::io("reading case file", &path, e))?;
+            (text, path.display().to_string())
+        };
+    for assignment in &args.set {
+        (text, origin) = set_constant(&text, &origin, assignment)?;
     }
-    let path = PathBuf::from(&name);
-    contact_input::regular::check_regular_file(&path, "case file")?;
-    let text = std::fs::read_to_string(&path)
-        .map_err(|e| InputError::io("reading case file", &path, e))?;
-    Ok((text, path.display().to_string()))
+    Ok((text, origin))
+}
+
+/// The case `text` with `--set NAME=VALUE` applied ([`crate::regularity::case_with`]): NAME
+/// must be a constant of the case and VALUE a finite number.
+fn set_constant(
+    text: &str,
+    origin: &str,
+    assignment: &str,
+) -> Result<(String, String), InputError> {
+    let refuse =
+        |reason: String| InputError::InvalidInput(format!("--set `{assignment}`: {reason}"));
+    let (name, value) = assignment
+        .split_once('=')
+        .ok_or_else(|| refuse("write NAME=VALUE".to_string()))?;
+    let name = name.trim();
+    let value: f64 = match value.trim().parse() {
+        Ok(value) if f64::is_finite(value) => value,
+        _ => return Err(refuse(format!("`{}` is not a finite number", value.trim()))),
+    };
+    let file = parse_case_file(text, origin)?;
+    if !file.constants.contains_key(name) {
+        let known: Vec<&str> = file.constants.keys().map(String::as_str).collect();
+        return Err(refuse(format!(
+            "{origin} has no constant `{name}` (its constants: {})",
+            if known.is_empty() {
+                "none".to_string()
+            } else {
+                known.join(", ")
+            }
+        )));
+    }
+    crate::regularity::case_with(text, origin, name, value)
 }
 
 /// `value` in scientific notation with `precision` digits, or `—` when it has no value.
@@ -840,6 +882,8 @@ fn regenerate_baseline(
                 memory_limit: None,
                 // regenerating the baseline replaces its files, and only those
                 overwrite: true,
+                // the baseline holds the built-in cases as written
+                set: Vec::new(),
             };
             verdicts.push(run_in_process(&args, fresh)?);
             let new = BaselineErrors::read(&errors)?;
