@@ -34,7 +34,7 @@
 use plotters::prelude::*;
 use simulate::pictures::read_contact_history;
 use simulate::run::RunOptions;
-use simulate::zone::{pressure_ellipse, stick_extent};
+use simulate::zone::{pressure_ellipse, profile_zone};
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -650,14 +650,8 @@ fn mindlin3d(quick: bool) -> String {
         for row in result.history.iter().skip(1) {
             let step = row["step"] as usize;
             // the profile runs from x = −0.2: s − 0.2 is x, centred on the contact
-            let nodes: Vec<(f64, usize, f64)> = records
-                .iter()
-                .filter(|r| r.step == step)
-                .map(|r| (r.coordinate - 0.2, r.status, r.normal_pressure))
-                .collect();
-            let pressures: Vec<(f64, f64)> = nodes.iter().map(|&(x, _, p)| (x, p)).collect();
-            let (_, radius) = pressure_ellipse(&pressures).expect("no contact zone");
-            let (stick, centre) = stick_extent(nodes.iter().copied()).unwrap_or((0.0, 0.0));
+            let (radius, stick) = profile_zone(&records, step, 0.2).expect("no contact zone");
+            let (stick, centre) = stick.unwrap_or((0.0, 0.0));
             let ratio = row["tangential_force"] / (friction * row["normal_force"]);
             let stick_ratio = stick / radius;
             let theory = (1.0 - ratio).max(0.0).cbrt();
@@ -715,18 +709,8 @@ fn cattaneo(quick: bool) -> String {
         let mut points = Vec::new();
         for row in result.history.iter().skip(1) {
             let step = row["step"] as usize;
-            let nodes: Vec<_> = records.iter().filter(|r| r.step == step).collect();
-            let pressures: Vec<(f64, f64)> = nodes
-                .iter()
-                .map(|r| (r.coordinate, r.normal_pressure))
-                .collect();
-            let (_, half_width) = pressure_ellipse(&pressures).expect("no contact zone");
-            let (stick, centre) = stick_extent(
-                nodes
-                    .iter()
-                    .map(|r| (r.coordinate, r.status, r.normal_pressure)),
-            )
-            .unwrap_or((0.0, 0.0));
+            let (half_width, stick) = profile_zone(&records, step, 0.0).expect("no contact zone");
+            let (stick, centre) = stick.unwrap_or((0.0, 0.0));
             let ratio = row["tangential_force"] / (friction * row["force_y"]);
             let stick_ratio = stick / half_width;
             let theory = (1.0 - ratio).max(0.0).sqrt();

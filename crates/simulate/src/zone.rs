@@ -21,6 +21,7 @@
 //! the reference configuration (small displacements); in 2D only its z-component is nonzero.
 
 use crate::contact_line::LineCoordinate;
+use crate::pictures::ContactRecord;
 use contact_damage::fem::mesh::BoundaryPart;
 use contact_damage::fem::space::LagrangeSpace;
 use contact_damage::model::contact::ContactNodes;
@@ -271,6 +272,32 @@ pub fn stick_extent(nodes: impl IntoIterator<Item = (f64, usize, f64)>) -> Optio
     (low <= high).then_some((0.5 * (high - low), 0.5 * (high + low)))
 }
 
+/// The contact zone of step `step` of a contact-history profile (`records`, as read by
+/// [`crate::pictures::read_contact_history`]), with `origin` subtracted from s so that a contact
+/// centred at s = origin is centred at 0: the half-width of its pressure ellipse
+/// ([`pressure_ellipse`]; None with fewer than two nodes on it) and its stick zone, half-width
+/// and centre ([`stick_extent`]; None when no loaded node sticks).
+pub fn profile_zone(
+    records: &[ContactRecord],
+    step: usize,
+    origin: f64,
+) -> Option<(f64, Option<(f64, f64)>)> {
+    let nodes: Vec<(f64, usize, f64)> = records
+        .iter()
+        .filter(|record| record.step == step)
+        .map(|record| {
+            (
+                record.coordinate - origin,
+                record.status,
+                record.normal_pressure,
+            )
+        })
+        .collect();
+    let pressures: Vec<(f64, f64)> = nodes.iter().map(|&(s, _, p)| (s, p)).collect();
+    let (_, half_width) = pressure_ellipse(&pressures)?;
+    Some((half_width, stick_extent(nodes)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -396,6 +423,42 @@ mod tests {
         let (half_width, centre) = stick_extent(nodes).unwrap();
         assert!((half_width - 0.2).abs() < 1e-15 && (centre - 0.1).abs() < 1e-15);
         assert_eq!(stick_extent([(0.0, 2, 1.0)]), None);
+    }
+
+    #[test]
+    fn profile_zone_reads_one_step_centred_at_its_origin() {
+        // a Hertz profile of half-width 0.5 centred at s = 1, sticking on [0.9, 1.1], at step 2;
+        // step 1 holds other values that must not enter
+        let record = |step, s: f64, status| ContactRecord {
+            step,
+            time: 0.1 * step as f64,
+            coordinate: s,
+            status,
+            normal_pressure: (1.0 - ((s - 1.0) / 0.5).powi(2)).max(0.0).sqrt(),
+            slip_rate: 0.0,
+            accumulated_slip: 0.0,
+        };
+        let mut records: Vec<ContactRecord> = (0..=20)
+            .map(|i| record(2, 0.4 + 0.06 * i as f64, 2))
+            .map(|r| ContactRecord {
+                status: if (r.coordinate - 1.0).abs() <= 0.1 + 1e-12 {
+                    1
+                } else {
+                    2
+                },
+                ..r
+            })
+            .collect();
+        records.push(ContactRecord {
+            normal_pressure: 100.0,
+            ..record(1, 1.0, 1)
+        });
+        let (half_width, stick) = profile_zone(&records, 2, 1.0).unwrap();
+        assert!((half_width - 0.5).abs() < 1e-12, "{half_width}");
+        let (stick_half_width, centre) = stick.unwrap();
+        assert!(stick_half_width > 0.05 && stick_half_width <= 0.1 + 1e-12);
+        assert!(centre.abs() < 1e-12, "{centre}");
+        assert_eq!(profile_zone(&records, 3, 1.0), None);
     }
 
     #[test]

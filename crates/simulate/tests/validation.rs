@@ -6,7 +6,7 @@ use crate::common;
 use common::scratch;
 use simulate::pictures::read_contact_history;
 use simulate::run::RunOptions;
-use simulate::zone::{pressure_ellipse, stick_extent};
+use simulate::zone::{pressure_ellipse, profile_zone};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
@@ -250,14 +250,8 @@ fn mindlin_stick_disc_in_3d_follows_the_theory_on_the_coarse_mesh() {
     let mut largest_ratio: f64 = 0.0;
     for row in rows.iter().skip(1) {
         let step = row["step"] as usize;
-        let nodes: Vec<(f64, usize, f64)> = records
-            .iter()
-            .filter(|r| r.step == step)
-            .map(|r| (r.coordinate - 0.2, r.status, r.normal_pressure))
-            .collect();
-        let pressures: Vec<(f64, f64)> = nodes.iter().map(|&(x, _, p)| (x, p)).collect();
-        let (_, radius) = pressure_ellipse(&pressures).expect("no contact zone");
-        let (stick, _) = stick_extent(nodes.iter().copied()).unwrap_or((0.0, 0.0));
+        let (radius, stick) = profile_zone(&records, step, 0.2).expect("no contact zone");
+        let (stick, _) = stick.unwrap_or((0.0, 0.0));
         let ratio = row["tangential_force"] / (0.5 * row["normal_force"]);
         assert!(ratio <= 1.0 + 1e-9, "step {step}: Q/μP = {ratio}");
         largest_ratio = largest_ratio.max(ratio);
@@ -306,18 +300,9 @@ fn cattaneo_mindlin_stick_zone_follows_the_theory_on_the_coarse_mesh() {
         let mut largest_ratio: f64 = 0.0;
         for row in rows.iter().skip(1) {
             let step = row["step"] as usize;
-            let nodes: Vec<_> = records.iter().filter(|r| r.step == step).collect();
-            let pressures: Vec<(f64, f64)> = nodes
-                .iter()
-                .map(|r| (r.coordinate, r.normal_pressure))
-                .collect();
-            let (_, half_width) = pressure_ellipse(&pressures).expect("no contact zone");
-            let (stick_half_width, centre) = stick_extent(
-                nodes
-                    .iter()
-                    .map(|r| (r.coordinate, r.status, r.normal_pressure)),
-            )
-            .unwrap_or_else(|| panic!("ν = {poisson}, step {step}: nothing sticks"));
+            let (half_width, stick) = profile_zone(&records, step, 0.0).expect("no contact zone");
+            let (stick_half_width, centre) =
+                stick.unwrap_or_else(|| panic!("ν = {poisson}, step {step}: nothing sticks"));
             let ratio = row["tangential_force"] / (0.5 * row["force_y"]);
             largest_ratio = largest_ratio.max(ratio);
             let theory = half_width * (1.0 - ratio).sqrt();

@@ -86,53 +86,46 @@ impl<const D: usize> VelocityOperator<D> {
                 data.friction_bound.len()
             )));
         }
-        if let Some(i) = data.load.iter().position(|v| !v.is_finite()) {
-            return Err(non_finite(
-                StepDatum::Load,
-                format!(
-                    "velocity step load vector at dof {i} (node {}, component {})",
-                    i / D,
-                    i % D
-                ),
-            ));
-        }
-        for (name, values) in [
-            ("normal pressure", data.normal_pressure),
-            ("friction bound", data.friction_bound),
-        ] {
-            if let Some(k) = values.iter().position(|v| !v.is_finite() || *v < 0.0) {
-                return Err(non_finite(
-                    StepDatum::Contact,
-                    format!(
-                        "{name} {} at contact node {} ({:?}) must be finite and ≥ 0",
-                        values[k],
-                        self.contact.nodes[k],
-                        self.space.node(self.contact.nodes[k])
-                    ),
-                ));
-            }
-        }
+        // one pass per vector: the first value that is not finite (or negative), or beyond the
+        // scale of double precision
         if let Some(i) = first_out_of_scale(data.load) {
-            return Err(out_of_scale(
-                StepDatum::Load,
-                format!("the load at node {} (component {})", i / D, i % D),
-                data.load[i],
-            ));
+            let (node, component) = (i / D, i % D);
+            return Err(if data.load[i].is_finite() {
+                out_of_scale(
+                    StepDatum::Load,
+                    format!("the load at node {node} (component {component})"),
+                    data.load[i],
+                )
+            } else {
+                non_finite(
+                    StepDatum::Load,
+                    format!(
+                        "velocity step load vector at dof {i} (node {node}, component {component})"
+                    ),
+                )
+            });
         }
         for (name, values) in [
             ("normal pressure", data.normal_pressure),
             ("friction bound", data.friction_bound),
         ] {
-            if let Some(k) = first_out_of_scale(values) {
-                return Err(out_of_scale(
-                    StepDatum::Contact,
-                    format!(
-                        "the {name} at contact node {} ({:?})",
-                        self.contact.nodes[k],
-                        self.space.node(self.contact.nodes[k])
-                    ),
-                    values[k],
-                ));
+            if let Some(k) = values.iter().position(|&v| !within_scale(v) || v < 0.0) {
+                let (node, value) = (self.contact.nodes[k], values[k]);
+                let at = self.space.node(node);
+                return Err(if value.is_finite() && value >= 0.0 {
+                    out_of_scale(
+                        StepDatum::Contact,
+                        format!("the {name} at contact node {node} ({at:?})"),
+                        value,
+                    )
+                } else {
+                    non_finite(
+                        StepDatum::Contact,
+                        format!(
+                            "{name} {value} at contact node {node} ({at:?}) must be finite and ≥ 0"
+                        ),
+                    )
+                });
             }
         }
         if let Some(implicit) = &data.implicit_contact {
@@ -149,31 +142,25 @@ impl<const D: usize> VelocityOperator<D> {
                     "the implicit normal compliance needs a finite time step k > 0",
                 ));
             }
-            if let Some(k) = implicit
-                .previous_penetration
-                .iter()
-                .position(|r| !r.is_finite())
-            {
-                return Err(non_finite(
-                    StepDatum::Contact,
-                    format!(
-                        "penetration u_ν − g = {} at contact node {} ({:?})",
-                        implicit.previous_penetration[k],
-                        self.contact.nodes[k],
-                        self.space.node(self.contact.nodes[k])
-                    ),
-                ));
-            }
-            if let Some(k) = first_out_of_scale(&implicit.previous_penetration) {
-                return Err(out_of_scale(
-                    StepDatum::Contact,
-                    format!(
-                        "the penetration u_ν − g at contact node {} ({:?})",
-                        self.contact.nodes[k],
-                        self.space.node(self.contact.nodes[k])
-                    ),
-                    implicit.previous_penetration[k],
-                ));
+            let penetration = &implicit.previous_penetration;
+            if let Some(k) = first_out_of_scale(penetration) {
+                let node = self.contact.nodes[k];
+                let at = self.space.node(node);
+                return Err(if penetration[k].is_finite() {
+                    out_of_scale(
+                        StepDatum::Contact,
+                        format!("the penetration u_ν − g at contact node {node} ({at:?})"),
+                        penetration[k],
+                    )
+                } else {
+                    non_finite(
+                        StepDatum::Contact,
+                        format!(
+                            "penetration u_ν − g = {} at contact node {node} ({at:?})",
+                            penetration[k]
+                        ),
+                    )
+                });
             }
         }
         Ok(())
