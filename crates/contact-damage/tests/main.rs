@@ -5,6 +5,7 @@
 mod common;
 
 mod bulk_data;
+mod curved;
 mod damage_iterations;
 mod implicit_contact;
 mod invalid_input;

@@ -54,6 +54,11 @@ impl<const D: usize> LagrangeElement<D> {
         Ok(LagrangeElement { degree })
     }
 
+    /// The P2 element (the geometry map of curved cells, [`crate::fem::curved`]).
+    pub(crate) fn quadratic() -> Self {
+        LagrangeElement { degree: 2 }
+    }
+
     /// Polynomial degree l.
     pub fn degree(&self) -> usize {
         self.degree

@@ -55,6 +55,11 @@ pub struct Mesh<const D: usize> {
     facet_opposite: Vec<usize>,
     /// Largest cell diameter h.
     max_diameter: f64,
+    /// Points of the curved edges (vertex pair, smaller index first → the edge's middle
+    /// point), off their straight midpoints; empty for a straight mesh.
+    curved_edges: HashMap<(usize, usize), [f64; D]>,
+    /// Whether each cell has a curved edge (empty for a straight mesh).
+    curved_cells: Vec<bool>,
 }
 
 /// Relative threshold of the degeneracy test: a cell is degenerate if |volume| ≤ 1e-12 · h^D.
@@ -90,6 +95,8 @@ impl<const D: usize> Mesh<D> {
             facet_cells: Vec::new(),
             facet_opposite: Vec::new(),
             max_diameter: 0.0,
+            curved_edges: HashMap::new(),
+            curved_cells: Vec::new(),
         };
         mesh.check_sizes()?;
         mesh.check_vertices_and_cells()?;
@@ -242,6 +249,128 @@ impl<const D: usize> Mesh<D> {
             }
         }
         Mesh::new(vertices, cells, facets, facet_parts)
+    }
+
+    /// The mesh with curved edges: `edge_points` gives, for edges (vertex pairs, in either
+    /// order), the point the edge passes through at its middle (the edge node of a Gmsh
+    /// second-order element). Cells with a curved edge are mapped isoparametrically
+    /// ([`crate::fem::curved`]); a point within 1e-12 × the edge length of the straight midpoint
+    /// leaves the edge straight.
+    ///
+    /// Errors ([`Error::InvalidMesh`], naming the entity): a vertex pair that is not an edge of
+    /// a cell; a non-finite point; two different points for one edge; a curved cell whose map
+    /// is inverted or degenerate (det J ≤ 1e-12 h^D at one of the P2 nodes or of the points
+    /// of a degree-4 rule).
+    pub fn with_curved_edges(
+        mut self,
+        edge_points: impl IntoIterator<Item = ((usize, usize), [f64; D])>,
+    ) -> Result<Self> {
+        let mut edges: HashMap<(usize, usize), usize> = HashMap::new();
+        for c in 0..self.num_cells() {
+            for &[a, b] in crate::fem::element::simplex_edges(D) {
+                let (p, q) = (self.cell(c)[a], self.cell(c)[b]);
+                edges.entry((p.min(q), p.max(q))).or_insert(c);
+            }
+        }
+        let mut curved_edges: HashMap<(usize, usize), [f64; D]> = HashMap::new();
+        for ((a, b), point) in edge_points {
+            let key = (a.min(b), a.max(b));
+            if !edges.contains_key(&key) {
+                return Err(Error::InvalidMesh(format!(
+                    "curved edge ({a}, {b}) is not an edge of any cell"
+                )));
+            }
+            if point.iter().any(|v| !v.is_finite()) {
+                return Err(Error::InvalidMesh(format!(
+                    "curved edge ({a}, {b}) has a non-finite point {point:?}"
+                )));
+            }
+            let (p, q) = (self.vertices[key.0], self.vertices[key.1]);
+            let length = (0..D).map(|i| (p[i] - q[i]).powi(2)).sum::<f64>().sqrt();
+            let offset = (0..D)
+                .map(|i| (point[i] - 0.5 * (p[i] + q[i])).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            let straight = offset <= 1e-12 * length;
+            if let Some(previous) = curved_edges.get(&key) {
+                if (0..D).any(|i| (previous[i] - point[i]).abs() > 1e-12 * length) {
+                    return Err(Error::InvalidMesh(format!(
+                        "edge ({a}, {b}) is given two different points, {previous:?} and {point:?}"
+                    )));
+                }
+            } else if !straight {
+                curved_edges.insert(key, point);
+            }
+        }
+        self.curved_cells = if curved_edges.is_empty() {
+            Vec::new()
+        } else {
+            (0..self.num_cells())
+                .map(|c| {
+                    crate::fem::element::simplex_edges(D).iter().any(|&[a, b]| {
+                        let (p, q) = (self.cell(c)[a], self.cell(c)[b]);
+                        curved_edges.contains_key(&(p.min(q), p.max(q)))
+                    })
+                })
+                .collect()
+        };
+        self.curved_edges = curved_edges;
+        let points = crate::fem::curved::CurvedMap::<D>::check_points();
+        for c in (0..self.num_cells()).filter(|&c| self.is_cell_curved(c)) {
+            let map = self.curved_map(c);
+            let h = self.cell_diameter(c);
+            for xi in &points {
+                let det = determinant(&map.jacobian(xi));
+                if det.is_nan() || det <= DEGENERACY_TOLERANCE * h.powi(D as i32) {
+                    return Err(Error::InvalidMesh(format!(
+                        "curved cell {c} (vertices {:?}, geometry nodes {:?}) is {} at the \
+                         reference point {xi:?}: det J = {det:e} (straight: {:e})",
+                        self.cell(c),
+                        map.nodes(),
+                        if det < 0.0 { "inverted" } else { "degenerate" },
+                        determinant(&self.cell_map(c).1),
+                    )));
+                }
+            }
+        }
+        Ok(self)
+    }
+
+    /// Whether some edge of the mesh is curved.
+    pub fn has_curved_edges(&self) -> bool {
+        !self.curved_edges.is_empty()
+    }
+
+    /// Whether cell c has a curved edge (and is mapped isoparametrically at P2).
+    pub fn is_cell_curved(&self, c: usize) -> bool {
+        self.curved_cells.get(c).copied().unwrap_or(false)
+    }
+
+    /// The point of edge (a, b) at its middle: its curved point, or the straight midpoint.
+    pub fn edge_point(&self, a: usize, b: usize) -> [f64; D] {
+        match self.curved_edges.get(&(a.min(b), a.max(b))) {
+            Some(&point) => point,
+            None => {
+                let (p, q) = (self.vertices[a], self.vertices[b]);
+                std::array::from_fn(|i| 0.5 * (p[i] + q[i]))
+            }
+        }
+    }
+
+    /// The curved edges: (vertex pair, smaller index first) → point.
+    pub fn curved_edges(&self) -> &HashMap<(usize, usize), [f64; D]> {
+        &self.curved_edges
+    }
+
+    /// The P2 geometry map of cell c (vertices, then edge points; affine when no edge of c
+    /// is curved).
+    pub fn curved_map(&self, c: usize) -> crate::fem::curved::CurvedMap<D> {
+        let cell = self.cell(c);
+        let mut nodes: Vec<[f64; D]> = cell.iter().map(|&v| self.vertices[v]).collect();
+        for &[a, b] in crate::fem::element::simplex_edges(D) {
+            nodes.push(self.edge_point(cell[a], cell[b]));
+        }
+        crate::fem::curved::CurvedMap::new(&nodes)
     }
 
     /// Number of vertices.

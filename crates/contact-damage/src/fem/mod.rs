@@ -3,6 +3,7 @@
 //! degree l ∈ {1, 2} and the spaces X^h (the element kernels of the scheme's operators, which
 //! need the laws, are in [`crate::scheme::assembly`]).
 
+pub mod curved;
 pub mod element;
 pub mod mesh;
 pub mod quadrature;

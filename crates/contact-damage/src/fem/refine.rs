@@ -35,11 +35,11 @@ pub fn refine_uniform<const D: usize>(mesh: &Mesh<D>) -> Result<Mesh<D>> {
     let mut midpoint = |a: usize, b: usize, vertices: &mut Vec<[f64; D]>| -> usize {
         let key = (a.min(b), a.max(b));
         *midpoints.entry(key).or_insert_with(|| {
-            let (p, q) = (vertices[a], vertices[b]);
-            vertices.push(std::array::from_fn(|i| 0.5 * (p[i] + q[i])));
+            vertices.push(mesh.edge_point(a, b));
             vertices.len() - 1
         })
     };
+    let mut curved_edges: Vec<((usize, usize), [f64; D])> = Vec::new();
 
     let mut cells = Vec::with_capacity((mesh.num_cells() * (D + 1)) << D);
     for c in 0..mesh.num_cells() {
@@ -63,6 +63,9 @@ pub fn refine_uniform<const D: usize>(mesh: &Mesh<D>) -> Result<Mesh<D>> {
         } else {
             tetrahedron_children(&m, &vertices)
         };
+        if mesh.is_cell_curved(c) {
+            curved_child_edges(&mesh.curved_map(c), &m, &children, &mut curved_edges);
+        }
         for mut child in children {
             orient_positively::<D>(&mut child, &vertices);
             cells.extend(child);
@@ -91,7 +94,43 @@ pub fn refine_uniform<const D: usize>(mesh: &Mesh<D>) -> Result<Mesh<D>> {
         }
         parts.extend(std::iter::repeat_n(mesh.facet_part(f), 1 << (D - 1)));
     }
-    Mesh::new(vertices, cells, facets, parts)
+    let refined = Mesh::new(vertices, cells, facets, parts)?;
+    if curved_edges.is_empty() {
+        Ok(refined)
+    } else {
+        refined.with_curved_edges(curved_edges)
+    }
+}
+
+/// The points of the edges of the children of a curved cell: the parent's P2 map at the middle
+/// of each child edge in the parent's reference coordinates (vertex i at ê_i, the midpoint of
+/// edge (i, j) at (ê_i + ê_j)/2; `m` as in [`refine_uniform`]), so that the children carry the
+/// parent's geometry exactly (its map restricted to a child is quadratic).
+fn curved_child_edges<const D: usize>(
+    map: &crate::fem::curved::CurvedMap<D>,
+    m: &[[usize; 4]; 4],
+    children: &[Vec<usize>],
+    out: &mut Vec<((usize, usize), [f64; D])>,
+) {
+    let unit = |i: usize| -> [f64; D] { std::array::from_fn(|k| f64::from(u8::from(k + 1 == i))) };
+    let reference_of = |id: usize| -> [f64; D] {
+        for (i, row) in m.iter().enumerate().take(D + 1) {
+            if let Some(j) = (i..=D).find(|&j| row[j] == id) {
+                let (a, b) = (unit(i), unit(j));
+                return std::array::from_fn(|k| 0.5 * (a[k] + b[k]));
+            }
+        }
+        unreachable!("a child vertex is a vertex or an edge midpoint of its parent")
+    };
+    for child in children {
+        for (k, &p) in child.iter().enumerate() {
+            for &q in &child[k + 1..] {
+                let (a, b) = (reference_of(p), reference_of(q));
+                let middle: [f64; D] = std::array::from_fn(|i| 0.5 * (a[i] + b[i]));
+                out.push(((p, q), map.point(&middle)));
+            }
+        }
+    }
 }
 
 /// The mesh refined `times` times by [`refine_uniform`] (`times = 0`: a copy).

@@ -3,6 +3,7 @@
 //! node maps, the interpolant Π^h, and evaluation of fields and gradients inside cells.
 
 use crate::error::{Error, Result};
+use crate::fem::curved::CurvedMap;
 use crate::fem::element::{simplex_edges, LagrangeElement};
 use crate::fem::mesh::{BoundaryPart, Mesh};
 use crate::fem::quadrature::QuadratureRule;
@@ -24,6 +25,24 @@ pub struct CellGeometry<const D: usize> {
 }
 
 impl<const D: usize> CellGeometry<D> {
+    /// The geometry with Jacobian `jacobian` whose map sends ξ to `point`: the affine map
+    /// itself, or the tangent map of a curved cell at ξ. None when J is singular.
+    pub fn from_jacobian(
+        xi: &[f64; D],
+        point: &[f64; D],
+        jacobian: SMatrix<f64, D, D>,
+    ) -> Option<Self> {
+        let inverse_transpose = jacobian.try_inverse()?.transpose();
+        let origin = SVector::<f64, D>::from_column_slice(point)
+            - jacobian * SVector::<f64, D>::from_column_slice(xi);
+        Some(CellGeometry {
+            origin,
+            jacobian,
+            inverse_transpose,
+            det: crate::fem::mesh::determinant(&jacobian).abs(),
+        })
+    }
+
     /// Physical point of the reference point ξ.
     pub fn point(&self, xi: &[f64; D]) -> [f64; D] {
         let x = self.origin + self.jacobian * SVector::<f64, D>::from_column_slice(xi);
@@ -127,6 +146,29 @@ impl FacetRule {
             _ => from_rule(QuadratureRule::<2>::simplex(degree)),
         }
     }
+
+    /// The nodes of a facet of the Lagrange element of `degree` on a mesh of dimension `dim`,
+    /// in [`LagrangeSpace::facet_nodes`] order (vertices, then edge midpoints), each with
+    /// weight 1: to evaluate normals or fields at the nodes.
+    pub fn facet_nodes(dim: usize, degree: usize) -> Self {
+        let vertex =
+            |k: usize| -> Vec<f64> { (0..dim).map(|i| f64::from(u8::from(i == k))).collect() };
+        let mut barycentric: Vec<Vec<f64>> = (0..dim).map(vertex).collect();
+        if degree == 2 {
+            for &[a, b] in simplex_edges(dim - 1) {
+                barycentric.push(
+                    (0..dim)
+                        .map(|i| if i == a || i == b { 0.5 } else { 0.0 })
+                        .collect(),
+                );
+            }
+        }
+        let weights = vec![1.0; barycentric.len()];
+        FacetRule {
+            barycentric,
+            weights,
+        }
+    }
 }
 
 /// A continuous Lagrange space X^h of degree 1 or 2 on a mesh.
@@ -139,11 +181,34 @@ pub struct LagrangeSpace<const D: usize> {
     facet_nodes: Vec<usize>,
     facet_node_count: usize,
     geometry: Vec<CellGeometry<D>>,
+    /// For each cell, its index in `curved_maps`, or `u32::MAX` when the cell is affine (empty
+    /// when no cell is curved or l = 1).
+    curved_index: Vec<u32>,
+    /// The P2 maps of the curved cells ([`crate::fem::curved`]).
+    curved_maps: Vec<CurvedMap<D>>,
+}
+
+/// One point of a facet rule on a boundary facet, with what integrals over the facet need.
+#[derive(Debug, Clone, Copy)]
+pub struct FacetQuadraturePoint<const D: usize> {
+    /// The physical point.
+    pub point: [f64; D],
+    /// Its reference coordinates in the facet's cell.
+    pub reference: [f64; D],
+    /// The outward unit normal there.
+    pub normal: [f64; D],
+    /// The rule's normalized weight (the weights of a rule sum to 1).
+    pub weight: f64,
+    /// The facet measure (straight facet) or the density of the curved facet's measure with
+    /// respect to the normalized rule there: the point's share of ∫_F g ds is
+    /// g × weight × measure.
+    pub measure: f64,
 }
 
 impl<const D: usize> LagrangeSpace<D> {
     /// Builds the global node numbering: the mesh vertices first, then (degree 2) one node at the
-    /// midpoint of each edge. Cell-local order follows [`LagrangeElement::reference_nodes`];
+    /// midpoint of each edge, or at its point when the edge is curved (the cells with a curved
+    /// edge are then mapped isoparametrically; at degree 1 every cell is affine). Cell-local order follows [`LagrangeElement::reference_nodes`];
     /// facet-local order is the facet vertices, then the facet edges in
     /// [`simplex_edges`]`(D − 1)` order.
     pub fn new(mesh: Arc<Mesh<D>>, degree: usize) -> Result<Self> {
@@ -152,9 +217,6 @@ impl<const D: usize> LagrangeSpace<D> {
         let n_local = element.num_nodes();
         let mut cell_nodes = Vec::with_capacity(mesh.num_cells() * n_local);
         let mut edge_index: HashMap<(usize, usize), usize> = HashMap::new();
-        let midpoint = |a: &[f64; D], b: &[f64; D]| -> [f64; D] {
-            std::array::from_fn(|i| 0.5 * (a[i] + b[i]))
-        };
         for c in 0..mesh.num_cells() {
             let cell = mesh.cell(c);
             cell_nodes.extend_from_slice(cell);
@@ -165,7 +227,7 @@ impl<const D: usize> LagrangeSpace<D> {
                     let next = nodes.len();
                     let id = *edge_index.entry(key).or_insert(next);
                     if id == next {
-                        nodes.push(midpoint(&mesh.vertex(a), &mesh.vertex(b)));
+                        nodes.push(mesh.edge_point(a, b));
                     }
                     cell_nodes.push(id);
                 }
@@ -209,6 +271,19 @@ impl<const D: usize> LagrangeSpace<D> {
                 })
             })
             .collect::<Result<Vec<_>>>()?;
+        let mut curved_index = Vec::new();
+        let mut curved_maps = Vec::new();
+        if degree == 2 && mesh.has_curved_edges() {
+            curved_index = vec![u32::MAX; mesh.num_cells()];
+            for (c, index) in curved_index.iter_mut().enumerate() {
+                if mesh.is_cell_curved(c) {
+                    *index = u32::try_from(curved_maps.len()).map_err(|_| {
+                        Error::InvalidMesh("more than 2^32 curved cells".to_string())
+                    })?;
+                    curved_maps.push(mesh.curved_map(c));
+                }
+            }
+        }
         Ok(Self {
             mesh,
             element,
@@ -217,7 +292,136 @@ impl<const D: usize> LagrangeSpace<D> {
             facet_nodes,
             facet_node_count,
             geometry,
+            curved_index,
+            curved_maps,
         })
+    }
+
+    /// The P2 map of cell c when it is curved (degree 2 on a mesh with curved edges).
+    pub fn curved_map(&self, c: usize) -> Option<&CurvedMap<D>> {
+        match self.curved_index.get(c) {
+            Some(&index) if index != u32::MAX => Some(&self.curved_maps[index as usize]),
+            _ => None,
+        }
+    }
+
+    /// Whether some cell is mapped isoparametrically.
+    pub fn has_curved_cells(&self) -> bool {
+        !self.curved_maps.is_empty()
+    }
+
+    /// Geometry of cell c at the reference point ξ: the affine geometry of an affine cell
+    /// ([`LagrangeSpace::geometry`]), the tangent map of the P2 map at ξ for a curved cell.
+    #[inline]
+    pub fn geometry_at(&self, c: usize, xi: &[f64; D]) -> CellGeometry<D> {
+        match self.curved_map(c) {
+            None => self.geometry[c],
+            Some(map) => self.curved_geometry(c, map, xi),
+        }
+    }
+
+    #[cold]
+    fn curved_geometry(&self, c: usize, map: &CurvedMap<D>, xi: &[f64; D]) -> CellGeometry<D> {
+        // The map was checked at construction (Mesh::with_curved_edges); a singular J between
+        // the checked points falls back to the affine geometry rather than to NaN.
+        CellGeometry::from_jacobian(xi, &map.point(xi), map.jacobian(xi))
+            .unwrap_or(self.geometry[c])
+    }
+
+    /// The physical point of the reference point ξ of cell c (through the P2 map of a curved
+    /// cell).
+    pub fn point_at(&self, c: usize, xi: &[f64; D]) -> [f64; D] {
+        match self.curved_map(c) {
+            None => self.geometry[c].point(xi),
+            Some(map) => map.point(xi),
+        }
+    }
+
+    /// The points of `rule` on boundary facet f: physical and cell-reference coordinates,
+    /// outward normal, weight and measure (see [`FacetQuadraturePoint`]). A straight facet has
+    /// one normal and its measure at every point; a facet of a curved cell has the normal and
+    /// measure density of the P2 map at each point (Nanson's formula through J(ξ)).
+    pub fn facet_quadrature(&self, f: usize, rule: &FacetRule) -> Vec<FacetQuadraturePoint<D>> {
+        let mesh = &self.mesh;
+        let cell = mesh.facet_cell(f);
+        let straight_normal = mesh.facet_normal(f);
+        let Some(map) = self.curved_map(cell) else {
+            let geometry = &self.geometry[cell];
+            let measure = mesh.facet_measure(f);
+            let vertices: Vec<[f64; D]> = mesh.facet(f).iter().map(|&v| mesh.vertex(v)).collect();
+            return rule
+                .barycentric
+                .iter()
+                .zip(&rule.weights)
+                .map(|(bary, &weight)| {
+                    let point: [f64; D] = std::array::from_fn(|i| {
+                        bary.iter().zip(&vertices).map(|(l, p)| l * p[i]).sum()
+                    });
+                    FacetQuadraturePoint {
+                        point,
+                        reference: geometry.reference_point(&point),
+                        normal: straight_normal,
+                        weight,
+                        measure,
+                    }
+                })
+                .collect();
+        };
+        // reference coordinates of the facet's vertices in its cell
+        let reference_vertices: Vec<[f64; D]> = mesh
+            .facet(f)
+            .iter()
+            .map(|v| {
+                let local = mesh.cell(cell).iter().position(|w| w == v).unwrap_or(0);
+                std::array::from_fn(|k| if k + 1 == local { 1.0 } else { 0.0 })
+            })
+            .collect();
+        rule.barycentric
+            .iter()
+            .zip(&rule.weights)
+            .map(|(bary, &weight)| {
+                let reference: [f64; D] = std::array::from_fn(|i| {
+                    bary.iter()
+                        .zip(&reference_vertices)
+                        .map(|(l, p)| l * p[i])
+                        .sum()
+                });
+                let jacobian = map.jacobian(&reference);
+                let tangent = |k: usize| -> SVector<f64, D> {
+                    let direction = SVector::<f64, D>::from_fn(|i, _| {
+                        reference_vertices[k][i] - reference_vertices[0][i]
+                    });
+                    jacobian * direction
+                };
+                // the normal direction and the density of the facet measure with respect to
+                // the normalized rule (whose parameter simplex has measure 1 in 2D, 1/2 in 3D)
+                let (mut normal, measure) = if D == 2 {
+                    let t = tangent(1);
+                    let n = SVector::<f64, D>::from_fn(|i, _| if i == 0 { t[1] } else { -t[0] });
+                    let length = n.norm();
+                    (n / length, length)
+                } else {
+                    let (a, b) = (tangent(1), tangent(2));
+                    let n = SVector::<f64, D>::from_fn(|i, _| {
+                        let (j, k) = ((i + 1) % 3, (i + 2) % 3);
+                        a[j] * b[k] - a[k] * b[j]
+                    });
+                    let area = n.norm();
+                    (n / area, 0.5 * area)
+                };
+                let straight = SVector::<f64, D>::from_column_slice(&straight_normal);
+                if normal.dot(&straight) < 0.0 {
+                    normal = -normal;
+                }
+                FacetQuadraturePoint {
+                    point: map.point(&reference),
+                    reference,
+                    normal: std::array::from_fn(|i| normal[i]),
+                    weight,
+                    measure,
+                }
+            })
+            .collect()
     }
 
     /// The mesh.
@@ -300,6 +504,7 @@ impl<const D: usize> LagrangeSpace<D> {
         self.element.gradients(xi, &mut grads[..n]);
         self.scalar_from_basis(
             c,
+            xi,
             &values[..n],
             |a| SVector::from_column_slice(&grads[a]),
             nodal,
@@ -321,6 +526,7 @@ impl<const D: usize> LagrangeSpace<D> {
         self.element.gradients(xi, &mut grads[..n]);
         self.vector_from_basis(
             c,
+            xi,
             &values[..n],
             |a| SVector::from_column_slice(&grads[a]),
             nodal,
@@ -338,7 +544,8 @@ impl<const D: usize> LagrangeSpace<D> {
     ) -> (f64, SVector<f64, D>) {
         let n = tabulation.nodes;
         let values = &tabulation.values[q * n..(q + 1) * n];
-        self.scalar_from_basis(c, values, |a| tabulation.gradients[q * n + a], nodal)
+        let xi = &tabulation.points[q];
+        self.scalar_from_basis(c, xi, values, |a| tabulation.gradients[q * n + a], nodal)
     }
 
     /// [`LagrangeSpace::eval_vector`] at point q of `tabulation` (the basis tabulated once for
@@ -352,18 +559,20 @@ impl<const D: usize> LagrangeSpace<D> {
     ) -> (SVector<f64, D>, SMatrix<f64, D, D>) {
         let n = tabulation.nodes;
         let values = &tabulation.values[q * n..(q + 1) * n];
-        self.vector_from_basis(c, values, |a| tabulation.gradients[q * n + a], nodal)
+        let xi = &tabulation.points[q];
+        self.vector_from_basis(c, xi, values, |a| tabulation.gradients[q * n + a], nodal)
     }
 
     /// A scalar field on cell c from the basis values and reference gradients at a point.
     fn scalar_from_basis(
         &self,
         c: usize,
+        xi: &[f64; D],
         values: &[f64],
         reference_gradient: impl Fn(usize) -> SVector<f64, D>,
         nodal: &[f64],
     ) -> (f64, SVector<f64, D>) {
-        let geom = &self.geometry[c];
+        let geom = self.geometry_at(c, xi);
         let mut value = 0.0;
         let mut grad_ref = SVector::<f64, D>::zeros();
         for (a, &node) in self.cell_nodes(c).iter().enumerate() {
@@ -377,11 +586,12 @@ impl<const D: usize> LagrangeSpace<D> {
     fn vector_from_basis(
         &self,
         c: usize,
+        xi: &[f64; D],
         values: &[f64],
         reference_gradient: impl Fn(usize) -> SVector<f64, D>,
         nodal: &[f64],
     ) -> (SVector<f64, D>, SMatrix<f64, D, D>) {
-        let geom = &self.geometry[c];
+        let geom = self.geometry_at(c, xi);
         let mut value = SVector::<f64, D>::zeros();
         let mut grad = SMatrix::<f64, D, D>::zeros();
         for (a, &node) in self.cell_nodes(c).iter().enumerate() {
@@ -398,7 +608,18 @@ impl<const D: usize> LagrangeSpace<D> {
     pub fn locate(&self, x: &[f64; D]) -> Option<(usize, [f64; D])> {
         let tol = 1e-12;
         self.geometry.iter().enumerate().find_map(|(c, geom)| {
-            let xi = geom.reference_point(x);
+            let xi = match self.curved_map(c) {
+                None => geom.reference_point(x),
+                Some(map) => {
+                    // a curved cell lies near its straight simplex: skip it when x is far
+                    // outside the latter
+                    let straight = geom.reference_point(x);
+                    if straight.iter().any(|&v| v < -0.5) || straight.iter().sum::<f64>() > 1.5 {
+                        return None;
+                    }
+                    map.reference_point(x)?
+                }
+            };
             let inside = xi.iter().all(|&v| v >= -tol) && xi.iter().sum::<f64>() <= 1.0 + tol;
             inside.then_some((c, xi))
         })

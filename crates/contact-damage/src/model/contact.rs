@@ -129,6 +129,7 @@ impl<const D: usize> ContactNodes<D> {
         let mut normals = vec![SVector::<f64, D>::zeros(); n_nodes];
         let mut on_contact = vec![false; n_nodes];
         let rule = FacetRule::new(D, space.degree());
+        let node_rule = FacetRule::facet_nodes(D, space.degree());
         let element = space.element();
         let n = element.num_nodes();
         let mut values = [0.0; crate::fem::element::MAX_CELL_NODES];
@@ -137,19 +138,27 @@ impl<const D: usize> ContactNodes<D> {
                 continue;
             }
             let cell = mesh.facet_cell(f);
-            let geometry = space.geometry(cell);
-            let measure = mesh.facet_measure(f);
-            let normal = SVector::<f64, D>::from_column_slice(&mesh.facet_normal(f));
-            let vertices: Vec<[f64; D]> = mesh.facet(f).iter().map(|&v| mesh.vertex(v)).collect();
-            for &node in space.facet_nodes(f) {
-                on_contact[node] = true;
-                normals[node] += normal * measure;
+            let points = space.facet_quadrature(f, &rule);
+            if space.curved_map(cell).is_none() {
+                let measure = mesh.facet_measure(f);
+                let normal = SVector::<f64, D>::from_column_slice(&mesh.facet_normal(f));
+                for &node in space.facet_nodes(f) {
+                    on_contact[node] = true;
+                    normals[node] += normal * measure;
+                }
+            } else {
+                // a curved facet: the normal of the P2 map at each node, weighted by the
+                // facet's measure
+                let measure: f64 = points.iter().map(|p| p.weight * p.measure).sum();
+                let at_nodes = space.facet_quadrature(f, &node_rule);
+                for (&node, point) in space.facet_nodes(f).iter().zip(&at_nodes) {
+                    on_contact[node] = true;
+                    normals[node] += SVector::<f64, D>::from_column_slice(&point.normal) * measure;
+                }
             }
-            for (bary, &weight) in rule.barycentric.iter().zip(&rule.weights) {
-                let x: [f64; D] = std::array::from_fn(|i| {
-                    bary.iter().zip(&vertices).map(|(l, p)| l * p[i]).sum()
-                });
-                element.values(&geometry.reference_point(&x), &mut values[..n]);
+            for point in &points {
+                let (weight, measure) = (point.weight, point.measure);
+                element.values(&point.reference, &mut values[..n]);
                 for &node in space.facet_nodes(f) {
                     let local = space
                         .cell_nodes(cell)

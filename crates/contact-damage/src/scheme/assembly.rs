@@ -68,11 +68,11 @@ pub fn viscous_element_matrix<const D: usize>(
     let n = tabulation.nodes;
     let nd = n * D;
     out.fill(0.0);
-    let geometry = space.geometry(cell);
     let nodes = space.cell_nodes(cell);
     let mut grads = [SVector::<f64, D>::zeros(); crate::fem::element::MAX_CELL_NODES];
     for q in 0..tabulation.len() {
-        physical_gradients(geometry, tabulation, q, &mut grads);
+        let geometry = space.geometry_at(cell, &tabulation.points[q]);
+        physical_gradients(&geometry, tabulation, q, &mut grads);
         let rate = match velocity {
             Some(v) => field_strain(nodes, &grads[..n], v),
             None => Tensor::<D>::zeros(),
@@ -105,10 +105,10 @@ pub fn damage_element_matrix<const D: usize>(
 ) {
     let n = tabulation.nodes;
     out.fill(0.0);
-    let geometry = space.geometry(cell);
     let mut grads = [SVector::<f64, D>::zeros(); crate::fem::element::MAX_CELL_NODES];
     for q in 0..tabulation.len() {
-        physical_gradients(geometry, tabulation, q, &mut grads);
+        let geometry = space.geometry_at(cell, &tabulation.points[q]);
+        physical_gradients(&geometry, tabulation, q, &mut grads);
         let weight = tabulation.weights[q] * geometry.det;
         let values = &tabulation.values[q * n..(q + 1) * n];
         for a in 0..n {
@@ -153,7 +153,7 @@ where
 pub(crate) struct FacetPoints<const D: usize> {
     /// Physical points.
     pub(crate) points: Vec<[f64; D]>,
-    /// Outward unit normal of the facet of each point.
+    /// Outward unit normal at each point (of its facet, or of the curved facet there).
     pub(crate) normals: Vec<[f64; D]>,
     /// The cell of the facet of each point.
     pub(crate) cells: Vec<usize>,
@@ -174,21 +174,14 @@ impl<const D: usize> FacetPoints<D> {
         let mut facets = Self::default();
         for f in (0..mesh.num_facets()).filter(|&f| select(f)) {
             let cell = mesh.facet_cell(f);
-            let geometry = space.geometry(cell);
-            let normal = mesh.facet_normal(f);
-            let measure = mesh.facet_measure(f);
-            let vertices: Vec<[f64; D]> = mesh.facet(f).iter().map(|&v| mesh.vertex(v)).collect();
-            for (bary, &weight) in rule.barycentric.iter().zip(&rule.weights) {
-                let x: [f64; D] = std::array::from_fn(|i| {
-                    bary.iter().zip(&vertices).map(|(l, p)| l * p[i]).sum()
-                });
-                element.values(&geometry.reference_point(&x), &mut values[..n]);
-                facets.points.push(x);
-                facets.normals.push(normal);
+            for point in space.facet_quadrature(f, rule) {
+                element.values(&point.reference, &mut values[..n]);
+                facets.points.push(point.point);
+                facets.normals.push(point.normal);
                 facets.cells.push(cell);
                 facets
                     .weighted_values
-                    .extend(values[..n].iter().map(|v| v * weight * measure));
+                    .extend(values[..n].iter().map(|v| v * point.weight * point.measure));
             }
         }
         facets

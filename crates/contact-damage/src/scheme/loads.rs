@@ -100,8 +100,8 @@ impl<const D: usize> LoadQuadrature<D> {
         let mut points = Vec::with_capacity(cells * tabulation.len());
         let mut weights = Vec::with_capacity(cells * tabulation.len());
         for cell in 0..cells {
-            let geometry = space.geometry(cell);
             for (xi, w) in tabulation.points.iter().zip(&tabulation.weights) {
+                let geometry = space.geometry_at(cell, xi);
                 points.push(geometry.point(xi));
                 weights.push(w * geometry.det);
             }
@@ -501,13 +501,13 @@ impl<const D: usize> LoadQuadrature<D> {
         let mut nodal_damage = [0.0; crate::fem::element::MAX_CELL_NODES];
         for c in 0..count {
             let cell = chunk.first + c;
-            let geometry = space.geometry(cell);
             let nodes = space.cell_nodes(cell);
             for (value, &node) in nodal_damage.iter_mut().zip(nodes) {
                 *value = damage[node];
             }
             for q in 0..nq {
-                physical_gradients(geometry, tab, q, &mut grads);
+                let geometry = space.geometry_at(cell, &tab.points[q]);
+                physical_gradients(&geometry, tab, q, &mut grads);
                 strains.push(field_strain(nodes, &grads[..n], displacement));
                 point_grads.extend_from_slice(&grads[..n]);
                 let values = &tab.values[q * n..(q + 1) * n];
@@ -660,10 +660,10 @@ mod tests {
         let mut damage = vec![0.0; space.num_nodes()];
         let mut grads = [SVector::<f64, D>::zeros(); crate::fem::element::MAX_CELL_NODES];
         for cell in 0..space.mesh().num_cells() {
-            let geometry = space.geometry(cell);
             let nodes = space.cell_nodes(cell);
             for q in 0..tab.len() {
-                physical_gradients(geometry, &tab, q, &mut grads);
+                let geometry = space.geometry_at(cell, &tab.points[q]);
+                physical_gradients(&geometry, &tab, q, &mut grads);
                 let values = &tab.values[q * n..(q + 1) * n];
                 let strain = field_strain(nodes, &grads[..n], &state.displacement);
                 let beta: f64 = nodes

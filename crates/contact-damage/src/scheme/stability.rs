@@ -95,11 +95,11 @@ pub fn step_limit<const D: usize>(
         let n = tabulation.nodes;
         let mut product = assemble_cell_vector(space, D, |cell, out| {
             out.fill(0.0);
-            let geometry = space.geometry(cell);
             let nodes = space.cell_nodes(cell);
             let mut grads = [SVector::<f64, D>::zeros(); crate::fem::element::MAX_CELL_NODES];
             for q in 0..tabulation.len() {
-                physical_gradients(geometry, &tabulation, q, &mut grads);
+                let geometry = space.geometry_at(cell, &tabulation.points[q]);
+                physical_gradients(&geometry, &tabulation, q, &mut grads);
                 let strain = field_strain(nodes, &grads[..n], x);
                 let stress = elasticity.strain_derivative(&Tensor::<D>::zeros(), 1.0, &strain);
                 let weight = tabulation.weights[q] * geometry.det.abs();

@@ -199,7 +199,25 @@ pub(super) fn build_mesh<const D: usize>(
             facets.push(vertex);
         }
     }
-    Mesh::new(vertices, cells, facets, elements.facet_parts).map_err(|error| match error {
+    let mut edge_points = Vec::with_capacity(elements.edge_nodes.len());
+    for &(a, b, middle) in &elements.edge_nodes {
+        let node = &nodes[&middle];
+        if D == 2 && node.coordinates[2] != 0.0 {
+            return Err(fail(
+                origin,
+                node.location,
+                "z = 0 for the nodes of a 2D mesh",
+                format!("z = {} for node {middle}", node.coordinates[2]),
+            ));
+        }
+        edge_points.push((
+            (index[&a], index[&b]),
+            std::array::from_fn(|k| node.coordinates[k]),
+        ));
+    }
+    let mesh = Mesh::new(vertices, cells, facets, elements.facet_parts)
+        .and_then(|mesh| mesh.with_curved_edges(edge_points));
+    mesh.map_err(|error| match error {
         Error::InvalidMesh(message) => {
             let hint = if D == 2 && message.contains("inverted") {
                 "; a clockwise triangle usually means the Gmsh surface's normal points to −z: \

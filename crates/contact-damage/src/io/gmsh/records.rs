@@ -38,6 +38,8 @@ pub(super) struct Elements {
     pub(super) section: Location,
     /// Vertex node tags of the cells, stride D + 1.
     pub(super) cell_nodes: Vec<u64>,
+    /// The edges of second-order cells: (vertex tag, vertex tag, edge node tag).
+    pub(super) edge_nodes: Vec<(u64, u64, u64)>,
     /// Vertex node tags of the boundary facets, stride D.
     pub(super) facet_nodes: Vec<u64>,
     pub(super) facet_parts: Vec<BoundaryPart>,
@@ -60,6 +62,7 @@ impl Elements {
         Elements {
             section,
             cell_nodes: Vec::new(),
+            edge_nodes: Vec::new(),
             facet_nodes: Vec::new(),
             facet_parts: Vec::new(),
             facet_locations: Vec::new(),
@@ -118,6 +121,13 @@ const ELEMENT_TYPES: [(i32, usize, usize, &str); 6] = [
     (9, 6, 3, "6-node triangle"),
     (4, 4, 4, "4-node tetrahedron"),
     (11, 10, 4, "10-node tetrahedron"),
+];
+
+/// The local vertex pairs of the edge nodes of the 6-node triangle and the 10-node
+/// tetrahedron, in Gmsh's node order (nodes 3–5, 4–9).
+const GMSH_EDGES: [&[[usize; 2]]; 2] = [
+    &[[0, 1], [1, 2], [2, 0]],
+    &[[0, 1], [1, 2], [2, 0], [3, 0], [3, 2], [3, 1]],
 ];
 
 /// Number of nodes and of vertices of a simplex element type with `vertices` vertices, or
@@ -253,9 +263,17 @@ pub(super) fn push_element<const D: usize>(
         ));
     }
     match part {
-        None => elements
-            .cell_nodes
-            .extend_from_slice(&node_tags[..vertices]),
+        None => {
+            elements
+                .cell_nodes
+                .extend_from_slice(&node_tags[..vertices]);
+            if node_tags.len() > vertices {
+                for (k, &[a, b]) in GMSH_EDGES[vertices - 3].iter().enumerate() {
+                    let edge = (node_tags[a], node_tags[b], node_tags[vertices + k]);
+                    elements.edge_nodes.push(edge);
+                }
+            }
+        }
         Some(part) => {
             elements
                 .facet_nodes

@@ -20,11 +20,11 @@ impl<const D: usize> VelocityOperator<D> {
             .par_chunks_mut(n_local)
             .zip(&self.constrained_cells)
             .for_each(|(out, &cell)| {
-                let geometry = self.space.geometry(cell);
                 let nodes = self.space.cell_nodes(cell);
                 let mut grads = [SVector::<f64, D>::zeros(); crate::fem::element::MAX_CELL_NODES];
                 for q in 0..tab.len() {
-                    crate::scheme::assembly::physical_gradients(geometry, tab, q, &mut grads);
+                    let geometry = self.space.geometry_at(cell, &tab.points[q]);
+                    crate::scheme::assembly::physical_gradients(&geometry, tab, q, &mut grads);
                     let rate = crate::scheme::assembly::field_strain(
                         nodes,
                         &grads[..n],
@@ -79,11 +79,11 @@ impl<const D: usize> VelocityOperator<D> {
             .par_chunks_mut(n_local + 1)
             .enumerate()
             .for_each(|(cell, out)| {
-                let geometry = self.space.geometry(cell);
                 let nodes = self.space.cell_nodes(cell);
                 let mut grads = [SVector::<f64, D>::zeros(); crate::fem::element::MAX_CELL_NODES];
                 for q in 0..tab.len() {
-                    crate::scheme::assembly::physical_gradients(geometry, tab, q, &mut grads);
+                    let geometry = self.space.geometry_at(cell, &tab.points[q]);
+                    crate::scheme::assembly::physical_gradients(&geometry, tab, q, &mut grads);
                     let rate =
                         crate::scheme::assembly::field_strain(nodes, &grads[..n], &cartesian);
                     let weight = tab.weights[q] * geometry.det;
