@@ -50,6 +50,8 @@ enum Zones {
     All,
     /// Slip in every step, never separation or stick, no damage bound active.
     SlipOnly,
+    /// Separation and slip on Γ3 in every step, never stick, no damage bound active.
+    SeparationAndSlip,
 }
 
 fn print_study(name: &str, study: &StudyResult) {
@@ -126,6 +128,16 @@ fn assert_study(
                     && stats.steps_with_upper_bound == 0
                     && stats.steps_with_lower_bound == 0,
                 "{name}: not slip alone with β inside (0, 1): {stats:?}"
+            );
+        }
+        Zones::SeparationAndSlip => {
+            assert!(
+                stats.steps_with_slip == finest.steps
+                    && stats.steps_with_separation == finest.steps
+                    && stats.steps_with_stick == 0
+                    && stats.steps_with_upper_bound == 0
+                    && stats.steps_with_lower_bound == 0,
+                "{name}: not separation and slip with β inside (0, 1): {stats:?}"
             );
         }
     }
@@ -386,6 +398,19 @@ fn rates_gmsh_mesh_unstructured_tetrahedra_3d_order2() {
         ..FULL
     };
     studies::<3>("tilted3d", 2, Zones::All, plan);
+}
+
+// A curved domain: the half disc from a Gmsh second-order mesh, isoparametric at l = 2 (every
+// level carries the same P2 arc), its straight chords at l = 1.
+
+#[test]
+fn rates_curved_contact_boundary_2d_order1() {
+    studies::<2>("curved2d", 1, Zones::SeparationAndSlip, FULL);
+}
+
+#[test]
+fn rates_curved_contact_boundary_isoparametric_2d_order2() {
+    studies::<2>("curved2d", 2, Zones::SeparationAndSlip, FULL);
 }
 
 #[test]

@@ -389,9 +389,9 @@ impl<const D: usize> DomainQuadrature<D> {
         let mut measures = Vec::with_capacity(if linear { cells } else { 0 });
         for c in 0..cells {
             let geometry = space.geometry(c);
-            let det = geometry.det.abs();
             let nodes = space.cell_nodes(c);
             for q in 0..points {
+                let det = space.geometry_at(c, &tabulation.points[q]).det.abs();
                 let weight = tabulation.weights[q] * det;
                 weights.push(weight);
                 for (a, &node) in nodes.iter().enumerate() {
@@ -404,7 +404,7 @@ impl<const D: usize> DomainQuadrature<D> {
                         .iter()
                         .map(|reference| geometry.inverse_transpose * reference),
                 );
-                measures.push(reference_measure * det);
+                measures.push(reference_measure * geometry.det.abs());
             }
         }
         Self {
@@ -489,8 +489,9 @@ pub fn viscous_power<const D: usize>(
             }
         } else {
             for c in cells.clone() {
-                let (geometry, nodes) = (space.geometry(c), space.cell_nodes(c));
+                let nodes = space.cell_nodes(c);
                 for q in 0..points {
+                    let geometry = space.geometry_at(c, &tabulation.points[q]);
                     // Σ_a v_a ⊗ ∇̂φ_a(ξ_q), then the chain rule ∇v = (Σ_a v_a ⊗ ∇̂φ_a) J⁻¹
                     let mut reference_gradient = SMatrix::<f64, D, D>::zeros();
                     for (a, &node) in nodes.iter().enumerate() {
@@ -590,8 +591,8 @@ pub(crate) mod tests {
         let n = tabulation.nodes;
         let mut area = 0.0;
         for c in 0..space.mesh().num_cells() {
-            let det = space.geometry(c).det.abs();
             for q in 0..tabulation.len() {
+                let det = space.geometry_at(c, &tabulation.points[q]).det.abs();
                 let values = &tabulation.values[q * n..(q + 1) * n];
                 let beta: f64 = space
                     .cell_nodes(c)

@@ -212,14 +212,14 @@ fn discrete_points<const D: usize>(
     let (nq, n_nodes) = (tab.len(), tab.nodes);
     let mut grads = [SVector::<f64, D>::zeros(); contact_damage::fem::element::MAX_CELL_NODES];
     for cell in cells {
-        let geometry = space.geometry(cell);
         let nodes = space.cell_nodes(cell);
         let mut gradients_at = None;
         for q in 0..nq {
             let cell_values = match gradients_at {
                 Some(values) if constant_gradients => values,
                 _ => {
-                    physical_gradients(geometry, tab, q, &mut grads);
+                    let geometry = space.geometry_at(cell, &tab.points[q]);
+                    physical_gradients(&geometry, tab, q, &mut grads);
                     let grads = &grads[..n_nodes];
                     let values = CellGradients {
                         fields: cell_fields(nodes, grads, state),
@@ -237,7 +237,7 @@ fn discrete_points<const D: usize>(
             discrete.push(DiscretePoint {
                 fields: cell_values.fields,
                 damage: scalar_value(nodes, values, &state.damage),
-                weight: tab.weights[q] * geometry.det,
+                weight: tab.weights[q] * space.geometry_at(cell, &tab.points[q]).det,
             });
             let (strain, previous, damage_gradient) = cell_values.reference;
             references.push(ReferencePoint {
@@ -283,12 +283,12 @@ impl<const D: usize> DiscreteChunk<D> {
         let mut damage = vec![0.0; states.len() * per_state];
         let mut grads = [SVector::<f64, D>::zeros(); contact_damage::fem::element::MAX_CELL_NODES];
         for (c, cell) in cells.enumerate() {
-            let geometry = space.geometry(cell);
             let nodes = space.cell_nodes(cell);
             for q in 0..nq {
                 let point = c * nq + q;
                 if q == 0 || !constant_gradients {
-                    physical_gradients(geometry, tab, q, &mut grads);
+                    let geometry = space.geometry_at(cell, &tab.points[q]);
+                    physical_gradients(&geometry, tab, q, &mut grads);
                     let at = if constant_gradients { c } else { point };
                     for (s, state) in states.iter().enumerate() {
                         fields[s * fields_per_state + at] =
@@ -361,14 +361,19 @@ impl<const D: usize> ErrorTracker<D> {
         let tabulation = Tabulation::cell_rule(space.element(), &rule);
         let points = (0..space.mesh().num_cells())
             .flat_map(|cell| {
-                let geometry = space.geometry(cell);
-                tabulation.points.iter().map(|xi| geometry.point(xi))
+                tabulation
+                    .points
+                    .iter()
+                    .map(move |xi| space.point_at(cell, xi))
             })
             .collect();
         let weights = (0..space.mesh().num_cells())
             .flat_map(|cell| {
-                let det = space.geometry(cell).det;
-                tabulation.weights.iter().map(move |w| w * det)
+                tabulation
+                    .points
+                    .iter()
+                    .zip(&tabulation.weights)
+                    .map(move |(xi, w)| w * space.geometry_at(cell, xi).det)
             })
             .collect();
         let nodes = tabulation.nodes;
