@@ -11,7 +11,9 @@ and the physical surface `disc`. The mesh is graded towards the first contact po
 H_CONTACT within a distance 0.12 of the origin (the contact half-width is about 0.04-0.05),
 growing linearly to 0.08 at distance 0.6. Three meshes, h = 0.01, 0.005, 0.0025 at the
 contact, saved as MSH 4.1 binary (the format read by contact_damage::io::gmsh):
-hertz_h0.01.msh, hertz_h0.005.msh, hertz_h0.0025.msh.
+hertz_h0.01.msh, hertz_h0.005.msh, hertz_h0.0025.msh. The two coarser ones are also saved as
+second-order meshes of the same triangles (6-node triangles, the edge nodes of the arc on the
+circle): hertz_h0.01_order2.msh, hertz_h0.005_order2.msh.
 
 Regenerate (from the repository root; gmsh 4.15.2 from PyPI, `pip install gmsh==4.15.2`):
 
@@ -26,6 +28,7 @@ import gmsh
 
 RADIUS = 1.0
 SIZES = [0.01, 0.005, 0.0025]
+SECOND_ORDER = [0.01, 0.005]
 HERE = os.path.dirname(os.path.abspath(__file__))
 
 
@@ -67,6 +70,9 @@ def mesh(h_contact: float) -> str:
     path = os.path.join(HERE, f"hertz_h{h_contact}.msh")
     gmsh.write(path)
     nodes = len(gmsh.model.mesh.getNodes()[0])
+    if h_contact in SECOND_ORDER:
+        gmsh.model.mesh.setOrder(2)
+        gmsh.write(os.path.join(HERE, f"hertz_h{h_contact}_order2.msh"))
     gmsh.finalize()
     return f"{path}: {nodes} nodes"
 

@@ -182,6 +182,69 @@ fn hertz_line_contact_on_the_coarse_mesh_matches_the_theory() {
     assert!(balance.abs() <= 1e-8 * load, "y balance {balance:e}");
 }
 
+/// The mean deviation, in % of p0, of the pressures of the even and of the odd nodes of the arc
+/// (sorted along it) from the fitted ellipse over |x| < a/2, with p0 and a. The contact nodes of
+/// the open arc alternate midpoint, vertex, …, midpoint at P2 (its end vertices are on the
+/// prescribed top): the even ones are the edge midpoints.
+fn midpoint_and_vertex_deviations(mut pressures: Vec<(f64, f64)>) -> ([f64; 2], f64, f64) {
+    pressures.sort_by(|a, b| a.0.total_cmp(&b.0));
+    assert!(pressures.len() % 2 == 1, "{} arc nodes", pressures.len());
+    let (peak, half_width) = pressure_ellipse(&pressures).expect("no contact zone");
+    let mut sums = [(0.0, 0.0); 2];
+    for (index, &(x, p)) in pressures.iter().enumerate() {
+        if x.abs() < 0.5 * half_width {
+            let ellipse = peak * (1.0 - (x / half_width).powi(2)).sqrt();
+            sums[index % 2].0 += 100.0 * (p - ellipse) / peak;
+            sums[index % 2].1 += 1.0;
+        }
+    }
+    (sums.map(|(sum, count)| sum / count), peak, half_width)
+}
+
+/// The Hertz half-disc on the coarse mesh's second-order twin (6-node triangles, the arc's
+/// edge nodes on the circle), with the gap written as `y`, the vertical distance to the flat:
+/// the cells along the arc are mapped isoparametrically, so vertex and midpoint pressures lie
+/// on one ellipse (mean deviations within 0.5 % of p0: measured +0.29 % and +0.06 %) and p0 and
+/// a match Hertz within 0.5 % (+0.33 %, −0.06 %). The same gap on the first-order mesh, whose
+/// straight P2 midpoints lie h²/8R inside the circle, puts the midpoints 10 % below the
+/// ellipse (−10.6 %) and p0 10 % off: the measure sees what a straight arc does.
+#[test]
+fn hertz_half_disc_on_a_second_order_mesh_has_one_smooth_pressure_profile() {
+    let measure = |file: &str| {
+        let mesh = validation_dir().join(file);
+        let (rows, out) = run(
+            "hertz",
+            &[
+                (
+                    "file = \"hertz_h0.0025.msh\"",
+                    format!("file = \"{}\"", mesh.display()),
+                ),
+                ("gap = \"R - sqrt(R^2 - x^2)\"", "gap = \"y\"".to_string()),
+            ],
+        );
+        let load = rows.last().unwrap()["force_y"];
+        let plane_modulus = 1.0 / (1.0 - 0.3f64.powi(2));
+        let hertz_width = (4.0 * load / (std::f64::consts::PI * plane_modulus)).sqrt();
+        let hertz_peak = 2.0 * load / (std::f64::consts::PI * hertz_width);
+        let (deviations, peak, width) = midpoint_and_vertex_deviations(last_pressures(&out));
+        (
+            deviations,
+            [("p0", peak, hertz_peak), ("a", width, hertz_width)],
+        )
+    };
+    let (curved, hertz) = measure("hertz_h0.01_order2.msh");
+    assert!(
+        curved.iter().all(|d| d.abs() <= 0.5),
+        "midpoints, vertices − ellipse: {curved:?} % of p0"
+    );
+    assert_hertz(hertz, 0.005);
+    let (straight, _) = measure("hertz_h0.01.msh");
+    assert!(
+        straight[0] < -5.0,
+        "straight midpoints − ellipse: {straight:?} % of p0"
+    );
+}
+
 /// Hertz contact of a sphere on a flat in 3D, on the coarse graded mesh (h = 0.02 at the
 /// contact, about 3 cells across the contact radius a ≈ 0.06, P2, c_ν = 1e6, ν = 0.3): a quarter
 /// of a block pressed onto a rigid paraboloid, its symmetry planes cutting the contact disc.
