@@ -193,6 +193,7 @@ pub fn run<const D: usize>(
     )?;
     let mut simulation = Simulation::new(setup.problem.clone())
         .map_err(|error| setup.load_watch.explain(&setup.origin, error.into()))?;
+    check_symmetry_planes(setup, &simulation)?;
     let (mut time_loop, mut progress) = StepLoop::prepare(setup, options, &mut simulation, dir)?;
     time_loop.print_start(&simulation)?;
     while simulation.state().step < time_loop.last_step {
@@ -205,6 +206,45 @@ pub fn run<const D: usize>(
         }
     }
     time_loop.finish(&simulation, progress)
+}
+
+/// A `[[displacement]]` declared a symmetry plane (`symmetry = true`) may fix only components
+/// tangential to Γ3 where it meets Γ3, so that those nodes stay in the contact rule: one that
+/// fixes the normal component of a node of Γ3 (a roller across Γ3, whose nodes would leave the
+/// contact rule) is an error at its key, naming the node and the normal.
+fn check_symmetry_planes<const D: usize>(
+    setup: &ProblemSetup<D>,
+    simulation: &Simulation<D>,
+) -> Result<(), InputError> {
+    let (contact, space) = (simulation.contact(), simulation.space());
+    let declared = setup.file.displacement.iter().enumerate();
+    for (i, _) in declared.filter(|(_, part)| part.symmetry) {
+        let Some(part) = setup.problem.data.dirichlet.get(i) else {
+            continue;
+        };
+        let on_part = |node: usize| {
+            part.facets
+                .iter()
+                .any(|&f| space.facet_nodes(f).contains(&node))
+        };
+        if let Some((node, normal)) = contact.normal_fixed.iter().find(|(n, _)| on_part(*n)) {
+            let point = space.node(*node);
+            return Err(contact_input::FileKind::Problem.error(
+                &setup.origin,
+                &format!("displacement[{i}].symmetry"),
+                format!(
+                    "part `{}` is declared a symmetry plane, but at node {node} of Γ3 \
+                     (x = {point:?}) the components it fixes are along Γ3's normal ν = {:?}, \
+                     not tangential to Γ3: the node would leave the contact rule. A symmetry \
+                     plane must cut Γ3 at a right angle; drop `symmetry = true` if the part is \
+                     meant to prescribe the normal displacement",
+                    part.name,
+                    normal.as_slice()
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The output folder of a run (`--out`, or `output.dir` of the problem): a fresh run checks
@@ -422,6 +462,13 @@ impl<'a, const D: usize> StepLoop<'a, D> {
                 String::new()
             }
         )?;
+        if let Some((node, _)) = self.contact.normal_fixed.first() {
+            contact_input::outln!(
+                "note: {} node(s) of Γ3 have a prescribed displacement along Γ3's normal and take no part in the contact rule (the first at x = {:?}); a part meant as a symmetry plane takes `symmetry = true`",
+                self.contact.normal_fixed.len(),
+                space.node(*node)
+            )?;
+        }
         Ok(())
     }
 

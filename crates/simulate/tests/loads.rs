@@ -263,3 +263,51 @@ fn gmsh_parts_on_the_contact_group_or_missing_are_refused_naming_the_key() {
         );
     }
 }
+
+/// Runs `text` (the pressed block's file, modified) with `simulate`'s driver into a scratch
+/// folder: the error message, if any.
+fn run_block(text: &str, name: &str) -> Result<(), String> {
+    let setup = setup(text)?;
+    let options = simulate::run::RunOptions {
+        out: Some(crate::common::scratch(name)),
+        overwrite: true,
+        quiet: true,
+        ..simulate::run::RunOptions::default()
+    };
+    simulate::run::run(&setup, &options)
+        .map(|_| ())
+        .map_err(|e| e.to_string())
+}
+
+/// A part declared a symmetry plane must fix only components tangential to Γ3 where it meets
+/// Γ3: the roller u_x = 0 on x = 0 (Γ3 = {y = 0}) declared so runs, and keeps its corner node in
+/// the contact rule; u_y prescribed on x = 0 fixes the corner's normal component and is refused at
+/// `displacement[1].symmetry`, naming the node and the normal. Undeclared, the same part runs
+/// (its corner node leaves the contact rule, as a prescribed normal displacement should).
+#[test]
+fn a_symmetry_plane_that_fixes_the_normal_of_the_contact_boundary_is_refused() {
+    let roller = "part = \"x_min\"\nx = \"0\"\n";
+    assert!(PRESSED_BLOCK.contains(roller));
+    let declared = PRESSED_BLOCK.replace(roller, &format!("{roller}symmetry = true\n"));
+    run_block(&declared, "symmetry-roller").unwrap();
+    let setup = setup(&declared).unwrap();
+    let simulation = Simulation::new(setup.problem.clone()).unwrap();
+    let corner = (0..simulation.space().num_nodes())
+        .find(|&n| simulation.space().node(n) == [0.0, 0.0])
+        .unwrap();
+    assert!(simulation.contact().index_of_node[corner].is_some());
+
+    // u_y on x = 0 agreeing with the top's at the corner (0, 0.5), zero at the contact corner
+    let normal = "part = \"x_min\"\ny = \"-0.04*y*min(t, 1)\"\n";
+    let across = PRESSED_BLOCK.replace(roller, &format!("{normal}symmetry = true\n"));
+    let error = run_block(&across, "symmetry-across").unwrap_err();
+    assert!(
+        error.contains("block.toml")
+            && error.contains("displacement[1].symmetry")
+            && error.contains("[0.0, 0.0]")
+            && error.contains("ν = [0.0, -1.0]"),
+        "{error}"
+    );
+    let undeclared = PRESSED_BLOCK.replace(roller, normal);
+    run_block(&undeclared, "symmetry-undeclared").unwrap();
+}

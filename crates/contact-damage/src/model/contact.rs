@@ -41,6 +41,10 @@ pub struct ContactNodes<const D: usize> {
     pub frames: Vec<SMatrix<f64, D, D>>,
     /// For each global node: its index in `nodes`, if any.
     pub index_of_node: Vec<Option<usize>>,
+    /// The nodes of Γ3 (ω_a > 0) taken out of the contact rule because their fixed components
+    /// carry more than half of the normal (a roller across Γ3, not along it), with the Γ3
+    /// normal there: a prescribed normal displacement replaces contact at those nodes.
+    pub normal_fixed: Vec<(usize, SVector<f64, D>)>,
 }
 
 /// An orthonormal frame whose first column is the unit vector `normal`.
@@ -179,6 +183,7 @@ impl<const D: usize> ContactNodes<D> {
             weights: Vec::new(),
             frames: Vec::new(),
             index_of_node: vec![None; n_nodes],
+            normal_fixed: Vec::new(),
         };
         for node in 0..n_nodes {
             if !on_contact[node] || weights[node] <= 1e-12 * scale {
@@ -204,6 +209,7 @@ impl<const D: usize> ContactNodes<D> {
                 }
                 let free_norm = free.norm();
                 if free_norm < norm * std::f64::consts::FRAC_1_SQRT_2 {
+                    result.normal_fixed.push((node, normals[node] / norm));
                     continue;
                 }
                 frame_with_fixed_axes(&(free / free_norm), &fixed)

@@ -69,6 +69,10 @@ pub struct DisplacementFile {
     /// u_D,z (3D).
     #[serde(default)]
     pub z: Option<String>,
+    /// The part is a symmetry plane: where it meets Γ3 it must fix components tangential to
+    /// Γ3 only, so that its nodes there stay in the contact rule (checked when the run starts).
+    #[serde(default)]
+    pub symmetry: bool,
 }
 
 /// Most uniform refinements of a Gmsh mesh in a problem file (`mesh.gmsh.refinements`).
