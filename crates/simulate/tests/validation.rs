@@ -17,12 +17,22 @@ fn validation_dir() -> PathBuf {
 /// Runs the validation problem `name` with lines replaced; returns the history rows and the
 /// output folder.
 fn run(name: &str, replacements: &[(&str, String)]) -> (Vec<BTreeMap<String, f64>>, PathBuf) {
+    run_in(name, name, replacements)
+}
+
+/// [`run`] in the scratch folder `validation-<folder>`: tests that run one problem in
+/// parallel each take their own folder.
+fn run_in(
+    name: &str,
+    folder: &str,
+    replacements: &[(&str, String)],
+) -> (Vec<BTreeMap<String, f64>>, PathBuf) {
     let mut text = std::fs::read_to_string(validation_dir().join(format!("{name}.toml"))).unwrap();
     for (from, to) in replacements {
         assert!(text.contains(from), "`{from}` is not in {name}.toml");
         text = text.replace(from, to);
     }
-    let dir = scratch(&format!("validation-{name}"));
+    let dir = scratch(&format!("validation-{folder}"));
     let problem = dir.join(format!("{name}.toml"));
     std::fs::write(&problem, text).unwrap();
     let out = dir.join("out");
@@ -212,8 +222,9 @@ fn midpoint_and_vertex_deviations(mut pressures: Vec<(f64, f64)>) -> ([f64; 2], 
 fn hertz_half_disc_on_a_second_order_mesh_has_one_smooth_pressure_profile() {
     let measure = |file: &str| {
         let mesh = validation_dir().join(file);
-        let (rows, out) = run(
+        let (rows, out) = run_in(
             "hertz",
+            &format!("hertz-gap-y-{file}"),
             &[
                 (
                     "file = \"hertz_h0.0025.msh\"",
