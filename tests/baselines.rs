@@ -20,6 +20,14 @@ const FIT: usize = 3;
 /// Studies (case, order, study) whose verdict is not PASS, and why.
 const EXEMPT: &[(&str, u64, &str, &str)] = &[
     (
+        "curved3d",
+        2,
+        "diagonal",
+        "three levels (a fourth, 63 k P2 tetrahedra with about 4400 contact nodes in slip and 45 steps, \
+         is beyond the time of a baseline run): the pairwise rates of E(h, k) are 1.89 and 1.45, \
+         the second at the theorem's 1.5",
+    ),
+    (
         "tilted3d",
         2,
         "diagonal",

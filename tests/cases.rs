@@ -522,7 +522,26 @@ fn case_reader_rejects_a_gap_that_is_not_finite() {
     );
 }
 
-// Cases on Gmsh meshes: the rotated zones cases on their committed meshes.
+// Cases on Gmsh meshes: the rotated zones cases on their committed meshes, and the curved
+// cases on their second-order meshes.
+
+#[test]
+fn curved_cases_satisfy_their_strong_form_with_separation_and_slip_on_the_curved_boundary() {
+    for zones in [
+        check_strong_form::<2>("curved2d"),
+        check_strong_form::<3>("curved3d"),
+    ] {
+        assert!(
+            zones.separation > 0 && zones.slip > 0 && zones.bound_active == 0,
+            "{zones:?}"
+        );
+    }
+    // their meshes carry curved edges, kept by refinement
+    let case = load::<2>("curved2d");
+    assert!(case.mesh(0).unwrap().has_curved_edges());
+    let case = load::<3>("curved3d");
+    assert!(case.mesh(1).unwrap().has_curved_edges());
+}
 
 #[test]
 fn tilted_cases_satisfy_their_strong_form_with_all_zones_on_the_tilted_contact_boundary() {

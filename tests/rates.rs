@@ -414,6 +414,27 @@ fn rates_curved_contact_boundary_isoparametric_2d_order2() {
 }
 
 #[test]
+fn rates_curved_contact_boundary_3d_order1() {
+    // the h-study's finest level (128 steps with about 1100 contact nodes in slip) costs two
+    // minutes: its three coarsest levels are pinned
+    let plan = Plan {
+        h: (Check::PinnedOnly, Some(3)),
+        ..FULL
+    };
+    studies::<3>("curved3d", 1, Zones::SeparationAndSlip, plan);
+}
+
+#[test]
+fn rates_curved_contact_boundary_isoparametric_3d_order2() {
+    // the diagonal study's three levels drift (pairwise rates of E(h, k) 1.89, 1.45): pinned
+    let plan = Plan {
+        diagonal: (Check::PinnedOnly, None),
+        ..FULL
+    };
+    studies::<3>("curved3d", 2, Zones::SeparationAndSlip, plan);
+}
+
+#[test]
 fn tetrahedra_refined_uniformly_keep_their_shape_regularity() {
     let case = case::<3>("tilted3d");
     let levels = LevelStudy {

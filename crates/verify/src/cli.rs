@@ -15,7 +15,7 @@ use std::path::{Path, PathBuf};
 
 /// Built-in cases: (name, TOML text). The files live in `verification/`; the meshes of the
 /// cases on Gmsh meshes are built in too ([`crate::domain::BUILT_IN_MESHES`]).
-pub const BUILT_IN_CASES: [(&str, &str); 17] = [
+pub const BUILT_IN_CASES: [(&str, &str); 18] = [
     ("slip2d", include_str!("../../../verification/slip2d.toml")),
     (
         "zones2d",
@@ -65,6 +65,10 @@ pub const BUILT_IN_CASES: [(&str, &str); 17] = [
     (
         "curved2d",
         include_str!("../../../verification/curved2d.toml"),
+    ),
+    (
+        "curved3d",
+        include_str!("../../../verification/curved3d.toml"),
     ),
 ];
 

@@ -31,7 +31,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 /// Meshes of the built-in cases: (path relative to `verification/`, bytes of the file).
-pub const BUILT_IN_MESHES: [(&str, &[u8]); 3] = [
+pub const BUILT_IN_MESHES: [(&str, &[u8]); 4] = [
     (
         "meshes/tilted2d.msh",
         include_bytes!("../../../verification/meshes/tilted2d.msh"),
@@ -43,6 +43,10 @@ pub const BUILT_IN_MESHES: [(&str, &[u8]); 3] = [
     (
         "meshes/curved2d.msh",
         include_bytes!("../../../verification/meshes/curved2d.msh"),
+    ),
+    (
+        "meshes/curved3d.msh",
+        include_bytes!("../../../verification/meshes/curved3d.msh"),
     ),
 ];
 
