@@ -29,6 +29,18 @@ H = 0.4
 H_3D = 0.4
 
 
+def write_second_order(path, dimension, binary):
+    """Meshes the model, raises it to second order and writes it in MSH 4.1."""
+    gmsh.model.mesh.generate(dimension)
+    gmsh.model.mesh.setOrder(2)
+    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
+    gmsh.option.setNumber("Mesh.Binary", 1 if binary else 0)
+    gmsh.write(path)
+    _, tags, _ = gmsh.model.mesh.getElements(dimension)
+    print(f"{path}: {len(tags[0])} second-order cells")
+    gmsh.finalize()
+
+
 def half_disc(path, size):
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
@@ -47,14 +59,7 @@ def half_disc(path, size):
     gmsh.model.addPhysicalGroup(1, [flat], name="clamped")
     gmsh.model.addPhysicalGroup(1, [arc_left, arc_right], name="contact")
     gmsh.model.addPhysicalGroup(2, [surface], name="body")
-    gmsh.model.mesh.generate(2)
-    gmsh.model.mesh.setOrder(2)
-    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-    gmsh.option.setNumber("Mesh.Binary", 0)
-    gmsh.write(path)
-    _, tags, _ = gmsh.model.mesh.getElements(2)
-    print(f"{path}: {len(tags[0])} six-node triangles")
-    gmsh.finalize()
+    write_second_order(path, 2, binary=False)
 
 
 def half_cylinder(path, size):
@@ -81,14 +86,7 @@ def half_cylinder(path, size):
     gmsh.option.setNumber("Mesh.MeshSizeMin", size)
     gmsh.option.setNumber("Mesh.MeshSizeMax", size)
     gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
-    gmsh.model.mesh.generate(3)
-    gmsh.model.mesh.setOrder(2)
-    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-    gmsh.option.setNumber("Mesh.Binary", 1)
-    gmsh.write(path)
-    _, tags, _ = gmsh.model.mesh.getElements(3)
-    print(f"{path}: {len(tags[0])} ten-node tetrahedra; groups {groups}")
-    gmsh.finalize()
+    write_second_order(path, 3, binary=True)
 
 
 if __name__ == "__main__":

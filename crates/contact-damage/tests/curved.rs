@@ -16,23 +16,23 @@ fn half_disc() -> Mesh<2> {
     parse_msh(HALF_DISC, "curved2d.msh", &map).expect("the half disc reads")
 }
 
-/// ∫_Ω 1 dx and ∫_Γ3 1 ds of a space, by its quadrature.
-fn area_and_arc(space: &LagrangeSpace<2>) -> (f64, f64) {
-    let tabulation = Tabulation::cell_rule(space.element(), &QuadratureRule::<2>::simplex(4));
-    let mut area = 0.0;
+/// ∫_Ω 1 dx and ∫_Γ3 1 ds of a space, by its quadrature (rules of degree 4).
+fn measures<const D: usize>(space: &LagrangeSpace<D>) -> (f64, f64) {
+    let tabulation = Tabulation::cell_rule(space.element(), &QuadratureRule::<D>::simplex(4));
+    let mut volume = 0.0;
     for c in 0..space.mesh().num_cells() {
         for (xi, w) in tabulation.points.iter().zip(&tabulation.weights) {
-            area += w * space.geometry_at(c, xi).det;
+            volume += w * space.geometry_at(c, xi).det;
         }
     }
-    let rule = FacetRule::new(2, 4);
+    let rule = FacetRule::new(D, 4);
     let mesh = space.mesh();
-    let arc = (0..mesh.num_facets())
+    let boundary = (0..mesh.num_facets())
         .filter(|&f| mesh.facet_part(f) == BoundaryPart::Contact)
         .flat_map(|f| space.facet_quadrature(f, &rule))
         .map(|p| p.weight * p.measure)
         .sum();
-    (area, arc)
+    (volume, boundary)
 }
 
 /// The edge nodes of the arc are on the circle, the P2 area and arc are those of the
@@ -51,15 +51,15 @@ fn second_order_mesh_keeps_its_curved_geometry_under_refinement() {
             "node {node} at {x:?}, r = {radius}"
         );
     }
-    let (area, arc) = area_and_arc(&space);
+    let (area, arc) = measures(&space);
     let straight = LagrangeSpace::new(Arc::new(mesh.clone()), 1).unwrap();
-    let (straight_area, straight_arc) = area_and_arc(&straight);
+    let (straight_area, straight_arc) = measures(&straight);
     assert!((area - PI / 2.0).abs() < 0.02 * (straight_area - PI / 2.0).abs());
     assert!((arc - PI).abs() < 0.02 * (straight_arc - PI).abs());
     for times in 1..=2 {
         let refined = refine_times(&mesh, times).unwrap();
         let space = LagrangeSpace::new(Arc::new(refined), 2).unwrap();
-        let (refined_area, refined_arc) = area_and_arc(&space);
+        let (refined_area, refined_arc) = measures(&space);
         // det J is a polynomial the rule integrates exactly; the arc's |dx/dt| is the square
         // root of one, integrated to about 1e-7 by the degree-4 rule on either level
         assert!(
@@ -106,7 +106,7 @@ fn curved_contact_nodes_have_the_circle_normal() {
     let space = LagrangeSpace::new(Arc::new(refine_times(&half_disc(), 1).unwrap()), 2).unwrap();
     let free = vec![false; space.num_nodes() * 2];
     let contact = ContactNodes::with_constraints(&space, &free).unwrap();
-    let (_, arc) = area_and_arc(&space);
+    let (_, arc) = measures(&space);
     let total: f64 = contact.weights.iter().sum();
     // the weights take the facet rule of degree l = 2, the arc that of degree 4: both
     // integrate |dx/dt| (not a polynomial) to a few 1e-6
@@ -152,23 +152,6 @@ const OCTANT: &str = include_str!("meshes/octant_p2.msh");
 fn ten_node_tetrahedra_map_the_sphere_isoparametrically() {
     let map = PhysicalMap::by_names(&["planes"], &[], &["sphere"]);
     let mesh = parse_msh::<3>(OCTANT, "octant_p2.msh", &map).expect("the octant reads");
-    let measures = |space: &LagrangeSpace<3>| -> (f64, f64) {
-        let tabulation = Tabulation::cell_rule(space.element(), &QuadratureRule::<3>::simplex(4));
-        let mut volume = 0.0;
-        for c in 0..space.mesh().num_cells() {
-            for (xi, w) in tabulation.points.iter().zip(&tabulation.weights) {
-                volume += w * space.geometry_at(c, xi).det;
-            }
-        }
-        let rule = FacetRule::new(3, 4);
-        let mesh = space.mesh();
-        let area = (0..mesh.num_facets())
-            .filter(|&f| mesh.facet_part(f) == BoundaryPart::Contact)
-            .flat_map(|f| space.facet_quadrature(f, &rule))
-            .map(|p| p.weight * p.measure)
-            .sum();
-        (volume, area)
-    };
     let space = LagrangeSpace::new(Arc::new(mesh.clone()), 2).unwrap();
     for &node in &space.boundary_nodes(BoundaryPart::Contact) {
         let x = space.node(node);

@@ -466,7 +466,8 @@ impl<const D: usize> LagrangeSpace<D> {
         let n = self.facet_node_count;
         &self.facet_nodes[f * n..(f + 1) * n]
     }
-    /// Geometry of cell c.
+    /// Affine geometry of cell c (of its straight simplex); a curved cell's geometry changes
+    /// from point to point: [`LagrangeSpace::geometry_at`].
     pub fn geometry(&self, c: usize) -> &CellGeometry<D> {
         &self.geometry[c]
     }

@@ -138,6 +138,19 @@ pub(super) fn boundary_entity_parts(
     Ok(entity_parts)
 }
 
+/// The D coordinates of node `tag`; a 2D mesh's nodes must have z = 0.
+fn coordinates<const D: usize>(origin: &str, node: &Node, tag: u64) -> Result<[f64; D]> {
+    if D == 2 && node.coordinates[2] != 0.0 {
+        return Err(fail(
+            origin,
+            node.location,
+            "z = 0 for the nodes of a 2D mesh",
+            format!("z = {} for node {tag}", node.coordinates[2]),
+        ));
+    }
+    Ok(std::array::from_fn(|k| node.coordinates[k]))
+}
+
 /// Compacts the nodes used by cells into vertices (ascending tag order) and builds the mesh.
 pub(super) fn build_mesh<const D: usize>(
     origin: &str,
@@ -171,15 +184,7 @@ pub(super) fn build_mesh<const D: usize>(
                 format!("node {tag}"),
             )
         })?;
-        if D == 2 && node.coordinates[2] != 0.0 {
-            return Err(fail(
-                origin,
-                node.location,
-                "z = 0 for the nodes of a 2D mesh",
-                format!("z = {} for node {tag}", node.coordinates[2]),
-            ));
-        }
-        vertices.push(std::array::from_fn(|k| node.coordinates[k]));
+        vertices.push(coordinates::<D>(origin, node, *tag)?);
     }
     let cells: Vec<usize> = elements.cell_nodes.iter().map(|tag| index[tag]).collect();
     let mut facets = Vec::with_capacity(elements.facet_nodes.len());
@@ -201,19 +206,8 @@ pub(super) fn build_mesh<const D: usize>(
     }
     let mut edge_points = Vec::with_capacity(elements.edge_nodes.len());
     for &(a, b, middle) in &elements.edge_nodes {
-        let node = &nodes[&middle];
-        if D == 2 && node.coordinates[2] != 0.0 {
-            return Err(fail(
-                origin,
-                node.location,
-                "z = 0 for the nodes of a 2D mesh",
-                format!("z = {} for node {middle}", node.coordinates[2]),
-            ));
-        }
-        edge_points.push((
-            (index[&a], index[&b]),
-            std::array::from_fn(|k| node.coordinates[k]),
-        ));
+        let point = coordinates::<D>(origin, &nodes[&middle], middle)?;
+        edge_points.push(((index[&a], index[&b]), point));
     }
     let mesh = Mesh::new(vertices, cells, facets, elements.facet_parts)
         .and_then(|mesh| mesh.with_curved_edges(edge_points));

@@ -24,9 +24,12 @@
 //! `$Elements`; all but `$PhysicalNames` are required (Gmsh always writes them).
 //!
 //! Second-order elements (3-node lines, type 8; 6-node triangles, type 9; 10-node tetrahedra,
-//! type 11) are accepted, but only their vertex nodes are used: the P2 space
-//! ([`crate::fem::space::LagrangeSpace`]) rebuilds its edge nodes as midpoints of straight edges, so
-//! curved geometry is not represented.
+//! type 11) are accepted: their vertex nodes are the mesh vertices, and the edge nodes of the
+//! cells are the points of the mesh's edges ([`Mesh::with_curved_edges`]; Gmsh's edge order of
+//! the 10-node tetrahedron, (0,1), (1,2), (2,0), (3,0), (3,2), (3,1), is mapped to the edges it
+//! names). An edge node off its straight midpoint makes its cells curved, mapped
+//! isoparametrically by the P2 space ([`crate::fem::curved`]); the edge nodes of boundary
+//! elements repeat those of the cells and are not read.
 //!
 //! Nothing is changed silently: Gmsh orients triangles and tetrahedra positively by
 //! convention (in 2D: when the surface normal is +z), and an inverted cell is reported by
