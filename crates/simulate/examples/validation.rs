@@ -13,7 +13,8 @@
 //! - `cattaneo`: Cattaneo–Mindlin partial slip of the same half-disc shifted sideways after the
 //!   normal load: the stick half-width c against a √(1 − Q/(μP));
 //! - `mindlin3d`: Mindlin partial slip of the 3D sphere (half of the block, its symmetry plane
-//!   through the contact disc along the load): the stick radius c against a (1 − Q/(μP))^(1/3);
+//!   through the contact disc along the load): the stick radius c against a (1 − Q/(μP))^(1/3),
+//!   and the shift of the block against Mindlin's tangential compliance;
 //! - `sliding`: a block pressed onto the foundation and dragged along it: the tangential
 //!   resultant grows and saturates at μP;
 //! - `sliding3d`: the same in 3D, dragged at 30° to the block's long side: the resultant and
@@ -712,6 +713,7 @@ fn mindlin3d(quick: bool) -> String {
          coordinate along the diameter y = 0 from its centre.\n\n",
     );
     let mut curves = Vec::new();
+    let mut compliances = Vec::new();
     for mesh in meshes {
         let mesh_path = validation_dir().join(format!("mindlin3d_h{mesh}.msh"));
         let replacements = [(
@@ -726,6 +728,10 @@ fn mindlin3d(quick: bool) -> String {
             result.seconds
         )
         .unwrap();
+        compliances.push((
+            mesh.to_string(),
+            mindlin_compliance(&result.history, friction),
+        ));
         let mut points = Vec::new();
         for row in result.history.iter().skip(1) {
             let step = row["step"] as usize;
@@ -759,6 +765,62 @@ fn mindlin3d(quick: bool) -> String {
         ("(1 − Q/(μP))^(1/3)", |q| (1.0 - q).cbrt()),
         &curves,
     );
+    table.push_str(MINDLIN_COMPLIANCE);
+    for (mesh, rows) in compliances {
+        table.push_str(&rows.replace("{mesh}", &mesh));
+    }
+    table
+}
+
+const MINDLIN_COMPLIANCE: &str = "**Tangential compliance.** The face z = 1 is shifted by s = 2e-4 (n − 1) at step n. Mindlin's compliance of an elastic half-space on a rigid sphere is δ_M(Q) = 3(2 − ν)μP/(16Ga) [1 − (1 − Q/(μP))^(2/3)] (Johnson, Contact Mechanics, (7.42)), a the Hertz radius of the measured load. The block is not a half-space: its top is at a finite distance from the contact, and it shears. A compliance C_b Q linear in Q, fitted by least squares over the partial-slip steps (Q < 0.95 μP), measures that difference; the table gives s − δ_M(Q) in % of δ_M(μP):\n\n";
+
+/// The tangential compliance of a Mindlin run (see [`MINDLIN_COMPLIANCE`]): a table of s, Q,
+/// δ_M(Q) and s − δ_M(Q) per step after the normal load, and the fitted C_b; `{mesh}` stands
+/// for the mesh in its heading.
+fn mindlin_compliance(history: &[BTreeMap<String, f64>], friction: f64) -> String {
+    let (young, poisson, radius, shift) = (1.0, 0.3, 1.0, 2e-4);
+    let shear = young / (2.0 * (1.0 + poisson));
+    let plane = young / (1.0 - poisson * poisson);
+    // per step after the normal load: step, s, Q/(μP), δ_M(Q), δ_M(μP), Q (the half's, doubled)
+    let rows: Vec<(usize, f64, f64, f64, f64, f64)> = history
+        .iter()
+        .skip(1)
+        .map(|row| {
+            let step = row["step"] as usize;
+            let (load, force) = (2.0 * row["normal_force"], 2.0 * row["tangential_force"]);
+            let a = (3.0 * load * radius / (4.0 * plane)).cbrt();
+            let full = 3.0 * (2.0 - poisson) * friction * load / (16.0 * shear * a);
+            let ratio = (force / (friction * load)).min(1.0);
+            let mindlin = full * (1.0 - (1.0 - ratio).powf(2.0 / 3.0));
+            (
+                step,
+                shift * (step as f64 - 1.0),
+                ratio,
+                mindlin,
+                full,
+                force,
+            )
+        })
+        .collect();
+    let partial = rows.iter().filter(|r| r.2 < 0.95);
+    let numerator: f64 = partial.clone().map(|r| r.5 * (r.1 - r.3)).sum();
+    let denominator: f64 = partial.map(|r| r.5 * r.5).sum();
+    let block = numerator / denominator;
+    let mut table = format!(
+        "h = {{mesh}}: fitted C_b = {block:.4} (Mindlin's compliance at Q = μP/2 is {:.1} per unit Q)\n\n| step | Q/(μP) | s | δ_M(Q) | (s − δ_M) / δ_M(μP) |\n|---|---|---|---|---|\n",
+        rows.iter()
+            .min_by(|a, b| (a.2 - 0.5).abs().total_cmp(&(b.2 - 0.5).abs()))
+            .map_or(f64::NAN, |r| r.3 / r.5)
+    );
+    for &(step, s, ratio, mindlin, full, _) in &rows {
+        writeln!(
+            table,
+            "| {step} | {ratio:.3} | {s:.2e} | {mindlin:.3e} | {:+.2} % |",
+            100.0 * (s - mindlin) / full
+        )
+        .unwrap();
+    }
+    table.push('\n');
     table
 }
 
