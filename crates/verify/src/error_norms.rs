@@ -215,10 +215,10 @@ fn discrete_points<const D: usize>(
         let nodes = space.cell_nodes(cell);
         let mut gradients_at = None;
         for q in 0..nq {
+            let geometry = space.geometry_at(cell, &tab.points[q]);
             let cell_values = match gradients_at {
                 Some(values) if constant_gradients => values,
                 _ => {
-                    let geometry = space.geometry_at(cell, &tab.points[q]);
                     physical_gradients(&geometry, tab, q, &mut grads);
                     let grads = &grads[..n_nodes];
                     let values = CellGradients {
@@ -237,7 +237,7 @@ fn discrete_points<const D: usize>(
             discrete.push(DiscretePoint {
                 fields: cell_values.fields,
                 damage: scalar_value(nodes, values, &state.damage),
-                weight: tab.weights[q] * space.geometry_at(cell, &tab.points[q]).det,
+                weight: tab.weights[q] * geometry.det,
             });
             let (strain, previous, damage_gradient) = cell_values.reference;
             references.push(ReferencePoint {

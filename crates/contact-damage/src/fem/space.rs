@@ -256,19 +256,8 @@ impl<const D: usize> LagrangeSpace<D> {
         let geometry = (0..mesh.num_cells())
             .map(|c| {
                 let (origin, jacobian) = mesh.cell_map(c);
-                let det = crate::fem::mesh::determinant(&jacobian);
-                let inverse_transpose = jacobian
-                    .try_inverse()
-                    .map(|inv| inv.transpose())
-                    .ok_or_else(|| {
-                        Error::InvalidMesh(format!("cell {c} has a singular Jacobian"))
-                    })?;
-                Ok(CellGeometry {
-                    origin: SVector::<f64, D>::from_column_slice(&origin),
-                    jacobian,
-                    inverse_transpose,
-                    det: det.abs(),
-                })
+                CellGeometry::from_jacobian(&[0.0; D], &origin, jacobian)
+                    .ok_or_else(|| Error::InvalidMesh(format!("cell {c} has a singular Jacobian")))
             })
             .collect::<Result<Vec<_>>>()?;
         let mut curved_index = Vec::new();
