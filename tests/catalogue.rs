@@ -68,6 +68,15 @@ fn catalogue() -> Vec<Hostile> {
             key: "domain.sides",
         });
     }
+    // a jump plane must be a fixed plane: affine in the coordinates, constant in time
+    for plane in ["x*x - 0.5", "x - t", "0*x + 1"] {
+        inputs.push(Hostile {
+            class: "jump plane that is no plane",
+            from: GAP,
+            to: format!("{GAP}\njump_planes = [\"{plane}\"]"),
+            key: "exact.jump_planes[0]",
+        });
+    }
     // μ < 0 only in (pole − 0.002, pole): between the samples β = k/100 of the check at load;
     // the manufactured β (from 1 down to 0.35) crosses the band during the runs
     for pole in ["0.705", "0.805"] {

@@ -339,6 +339,7 @@ fn problem<const D: usize>(mesh: Arc<Mesh<D>>) -> Problem<D> {
             dirichlet: Vec::new(),
             initial_displacement: Arc::new(initial_displacement::<D>),
             initial_damage: Arc::new(|_| 1.0),
+            jump_planes: Vec::new(),
         },
         final_time: FINAL_TIME,
         steps: STEPS,

@@ -49,6 +49,7 @@
 //!     dirichlet: Vec::new(),
 //!     initial_displacement: Arc::new(|_| [0.0, 0.0]),
 //!     initial_damage: Arc::new(|_| 1.0),
+//!     jump_planes: Vec::new(),
 //! };
 //! let problem = Problem { mesh: Arc::new(mesh), degree: 1, model, data, final_time: 1.0, steps: 10, settings: SchemeSettings::default() };
 //! let mut simulation = Simulation::new(problem)?;

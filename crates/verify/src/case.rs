@@ -15,7 +15,7 @@ use crate::InputError;
 use contact_damage::algebra::linalg::MAGNITUDE_LIMIT;
 use contact_damage::fem::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::{
-    Data, PointScalarField, PrescribedDisplacement, Problem, SchemeSettings,
+    Data, JumpPlane, PointScalarField, PrescribedDisplacement, Problem, SchemeSettings,
 };
 use contact_input::file::{parse_expr, parse_toml, positive};
 use contact_input::sides::{prescribed_sides, PrescribedSide};
@@ -136,6 +136,10 @@ pub struct ExactFile {
     /// g(x); default 0.
     #[serde(default)]
     pub gap: Option<String>,
+    /// Planes across which the data jump (each an affine function of x whose zero set is the
+    /// plane): the solver integrates the boundary facets they cross piecewise; default none.
+    #[serde(default)]
+    pub jump_planes: Vec<String>,
 }
 
 /// Studies for one polynomial degree.
@@ -217,6 +221,8 @@ pub struct Case<const D: usize> {
     pub programs: Arc<ExactPrograms<D>>,
     /// Sides of Γ1 with prescribed components u_D = u.
     pub prescribed: Vec<PrescribedSide<D>>,
+    /// The planes of `exact.jump_planes`.
+    pub jump_planes: Vec<JumpPlane<D>>,
 }
 
 /// Checks the study definitions before anything runs: keys `order1`/`order2`; level studies with
@@ -575,10 +581,17 @@ impl<const D: usize> Case<D> {
                 constants,
             )?,
         };
+        let jump_planes = crate::jump_planes::jump_planes(
+            origin,
+            &exact_file.jump_planes,
+            constants,
+            file.final_time,
+        )?;
         let case = Self {
             origin: origin.to_string(),
             domain,
             prescribed,
+            jump_planes,
             laws,
             programs: Arc::new(ExactPrograms::new(&exact)),
             exact,
@@ -892,6 +905,7 @@ impl<const D: usize> Case<D> {
                     std::array::from_fn(|i| value(&eu.displacement[i], x, 0.0))
                 }),
                 initial_damage: Arc::new(move |x| value(&eb.damage, x, 0.0)),
+                jump_planes: self.jump_planes.clone(),
             },
             final_time: self.file.final_time,
             steps,

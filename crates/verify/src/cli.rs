@@ -111,7 +111,7 @@ pub struct StudyArgs {
     /// Space dimension of the default case (2 or 3); ignored with --case.
     #[arg(long, default_value_t = 2)]
     pub dim: usize,
-    /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d, mild2d, strong2d, wear2d, carreau2d, implicit2d, loads2d, loads3d, mild3d, strong3d, wear3d, tilted2d, tilted3d).
+    /// A case file (TOML), or the name of a built-in case (slip2d, zones2d, slip3d, zones3d, mild2d, strong2d, wear2d, carreau2d, implicit2d, loads2d, loads3d, mild3d, strong3d, wear3d, tilted2d, tilted3d, curved2d, curved3d).
     #[arg(long)]
     pub case: Option<String>,
     /// Use only the first (coarsest) N levels of every study (N ≥ 2: a rate needs two levels).
@@ -927,4 +927,24 @@ fn regenerate_baseline(
         outln!("  {line}")?;
     }
     Ok(verdicts.into_iter().max().unwrap_or(Outcome::Success))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    /// `verify --help` names every built-in case under `--case`.
+    #[test]
+    fn case_help_names_every_built_in_case() {
+        let command = Cli::command();
+        let case = command
+            .get_arguments()
+            .find(|a| a.get_id() == "case")
+            .expect("--case is an option of the single-process run");
+        let help = case.get_help().expect("--case has a help text").to_string();
+        for (name, _) in BUILT_IN_CASES {
+            assert!(help.contains(name), "--case help lacks {name}: {help}");
+        }
+    }
 }

@@ -26,6 +26,7 @@ pub mod cli;
 pub mod domain;
 pub mod error_norms;
 pub mod exponents;
+pub mod jump_planes;
 pub mod manufactured;
 pub mod plot;
 pub mod regularity;

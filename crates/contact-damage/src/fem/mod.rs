@@ -5,6 +5,7 @@
 
 pub mod curved;
 pub mod element;
+pub mod facet_split;
 pub mod mesh;
 pub mod quadrature;
 pub mod quality;

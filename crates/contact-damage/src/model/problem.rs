@@ -53,4 +53,26 @@ pub struct Data<const D: usize> {
     pub initial_displacement: StaticVectorField<D>,
     /// β0 with values in [0, 1].
     pub initial_damage: StaticScalarField<D>,
+    /// Planes across which the boundary data f2, f3 and the damage flux jump (a pressure on part
+    /// of a face, a friction traction at a stick–slip front): the facets a plane crosses are
+    /// integrated piecewise, each side by the full rule
+    /// ([`FacetRule::split`](crate::fem::space::FacetRule::split)), so the jump costs no
+    /// quadrature error. Straight facets only; at most one plane per facet. Empty: none.
+    pub jump_planes: Vec<JumpPlane<D>>,
+}
+
+/// The plane {x : normal · x = offset} (see [`Data::jump_planes`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JumpPlane<const D: usize> {
+    /// A normal of the plane (any length but zero).
+    pub normal: [f64; D],
+    /// normal · x on the plane.
+    pub offset: f64,
+}
+
+impl<const D: usize> JumpPlane<D> {
+    /// normal · x − offset: of one sign on each side of the plane, affine in x.
+    pub fn level(&self, x: &[f64; D]) -> f64 {
+        self.normal.iter().zip(x).map(|(n, x)| n * x).sum::<f64>() - self.offset
+    }
 }

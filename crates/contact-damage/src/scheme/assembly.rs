@@ -5,8 +5,10 @@
 //! Matrices are assembled against a [`SparsityPattern`](crate::algebra::linalg::SparsityPattern) built once per mesh: a numeric assembly
 //! computes every element matrix in parallel into one flat array and sums it into the pattern.
 
+use crate::error::{Error, Result};
 use crate::fem::space::{CellGeometry, FacetRule, LagrangeSpace, Tabulation};
 use crate::model::laws::{Tensor, Viscosity};
+use crate::model::problem::JumpPlane;
 use nalgebra::SVector;
 use rayon::prelude::*;
 
@@ -167,6 +169,19 @@ impl<const D: usize> FacetPoints<D> {
         rule: &FacetRule,
         select: impl Fn(usize) -> bool,
     ) -> Self {
+        Self::split_at(space, rule, select, &[])
+            .expect("no plane splits a facet, so no facet is refused")
+    }
+
+    /// As [`FacetPoints::new`], with the facets that a plane of `planes` crosses integrated
+    /// piecewise ([`FacetRule::split`]). Refused: a plane that crosses a curved facet (its
+    /// pieces are not straight), two planes that cross one facet.
+    pub(crate) fn split_at(
+        space: &LagrangeSpace<D>,
+        rule: &FacetRule,
+        select: impl Fn(usize) -> bool,
+        planes: &[JumpPlane<D>],
+    ) -> Result<Self> {
         let mesh = space.mesh();
         let element = space.element();
         let n = element.num_nodes();
@@ -174,7 +189,28 @@ impl<const D: usize> FacetPoints<D> {
         let mut facets = Self::default();
         for f in (0..mesh.num_facets()).filter(|&f| select(f)) {
             let cell = mesh.facet_cell(f);
-            for point in space.facet_quadrature(f, rule) {
+            let vertices: Vec<[f64; D]> = mesh.facet(f).iter().map(|&v| mesh.vertex(v)).collect();
+            let mut split = None;
+            for (k, plane) in planes.iter().enumerate() {
+                let levels: Vec<f64> = vertices.iter().map(|x| plane.level(x)).collect();
+                let Some(pieces) = rule.split(&levels) else {
+                    continue;
+                };
+                if space.curved_map(cell).is_some() {
+                    return Err(Error::InvalidInput(format!(
+                        "jump plane {k} (normal {:?}, offset {}) crosses the curved boundary facet {f} of cell {cell} (vertices {vertices:?}); a facet is split along a plane only where it is straight",
+                        plane.normal, plane.offset
+                    )));
+                }
+                if split.is_some() {
+                    return Err(Error::InvalidInput(format!(
+                        "two jump planes cross the boundary facet {f} of cell {cell} (vertices {vertices:?}), the second plane {k} (normal {:?}, offset {}); a facet is split along one plane",
+                        plane.normal, plane.offset
+                    )));
+                }
+                split = Some(pieces);
+            }
+            for point in space.facet_quadrature(f, split.as_ref().unwrap_or(rule)) {
                 element.values(&point.reference, &mut values[..n]);
                 facets.points.push(point.point);
                 facets.normals.push(point.normal);
@@ -184,7 +220,7 @@ impl<const D: usize> FacetPoints<D> {
                     .extend(values[..n].iter().map(|v| v * point.weight * point.measure));
             }
         }
-        facets
+        Ok(facets)
     }
 
     pub(crate) fn len(&self) -> usize {
@@ -241,6 +277,168 @@ pub fn add_facet_integrals<const D: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::fem::mesh::{BoundaryPart, Mesh};
+    use std::sync::Arc;
+
+    /// Σ_p Σ_a φ_a(x_p) w_p f(x_p) = ∫ f over the selected facets (the basis sums to 1).
+    fn facet_integral<const D: usize>(
+        points: &FacetPoints<D>,
+        f: impl Fn(&[f64; D]) -> f64,
+    ) -> f64 {
+        let nodes = points.weighted_values.len() / points.len();
+        points
+            .points
+            .iter()
+            .enumerate()
+            .map(|(p, x)| {
+                points.weighted_values[p * nodes..(p + 1) * nodes]
+                    .iter()
+                    .sum::<f64>()
+                    * f(x)
+            })
+            .sum()
+    }
+
+    fn neumann_points<const D: usize>(
+        mesh: Mesh<D>,
+        degree: usize,
+        planes: &[JumpPlane<D>],
+    ) -> Result<FacetPoints<D>> {
+        let space = LagrangeSpace::new(Arc::new(mesh), degree)?;
+        let mesh = space.mesh().clone();
+        FacetPoints::split_at(
+            &space,
+            &FacetRule::new(D, 4),
+            |f| mesh.facet_part(f) == BoundaryPart::Neumann,
+            planes,
+        )
+    }
+
+    /// A traction that jumps across a plane inside the facets it crosses is integrated exactly
+    /// once the plane is declared (each side by the full rule), and not without: in 2D x² on
+    /// x > 0.3 of the top of the unit square, (1 − 0.3³)/3; in 3D the indicator of x + y > 0.7
+    /// on the top of the unit cube, 1 − 0.7²/2; at l = 1 and 2.
+    #[test]
+    fn split_facet_points_integrate_a_jumping_traction_exactly() {
+        use BoundaryPart::{Dirichlet, Neumann};
+        for degree in [1, 2] {
+            let square = || {
+                Mesh::box_mesh(
+                    [0.0; 2],
+                    [1.0; 2],
+                    [4, 4],
+                    [[Dirichlet, Neumann], [Dirichlet, Neumann]],
+                )
+                .unwrap()
+            };
+            let plane = JumpPlane {
+                normal: [1.0, 0.0],
+                offset: 0.3,
+            };
+            let traction = |x: &[f64; 2]| {
+                if x[1] > 1.0 - 1e-9 && x[0] > 0.3 {
+                    x[0] * x[0]
+                } else {
+                    0.0
+                }
+            };
+            let exact = (1.0 - 0.3_f64.powi(3)) / 3.0;
+            let split = neumann_points(square(), degree, &[plane]).unwrap();
+            assert!((facet_integral(&split, traction) - exact).abs() < 1e-14);
+            let plain = neumann_points(square(), degree, &[]).unwrap();
+            assert!((facet_integral(&plain, traction) - exact).abs() > 1e-4);
+
+            let cube = || {
+                Mesh::box_mesh(
+                    [0.0; 3],
+                    [1.0; 3],
+                    [3, 3, 3],
+                    [
+                        [Dirichlet, Dirichlet],
+                        [Dirichlet, Dirichlet],
+                        [Dirichlet, Neumann],
+                    ],
+                )
+                .unwrap()
+            };
+            let plane = JumpPlane {
+                normal: [1.0, 1.0, 0.0],
+                offset: 0.7,
+            };
+            let traction = |x: &[f64; 3]| f64::from(u8::from(x[0] + x[1] > 0.7));
+            let exact = 1.0 - 0.7 * 0.7 / 2.0;
+            let split = neumann_points(cube(), degree, &[plane]).unwrap();
+            assert!((facet_integral(&split, traction) - exact).abs() < 1e-14);
+            let plain = neumann_points(cube(), degree, &[]).unwrap();
+            assert!((facet_integral(&plain, traction) - exact).abs() > 1e-4);
+        }
+    }
+
+    /// A facet is split along one plane, and only where it is straight: two planes through one
+    /// facet, and a plane through a curved facet, are refused naming the facet.
+    #[test]
+    fn split_facet_points_refuse_two_planes_and_curved_facets() {
+        use BoundaryPart::{Dirichlet, Neumann};
+        let square = Mesh::box_mesh(
+            [0.0; 2],
+            [1.0; 2],
+            [4, 4],
+            [[Dirichlet, Neumann], [Dirichlet, Neumann]],
+        )
+        .unwrap();
+        let planes = [
+            JumpPlane {
+                normal: [1.0, 0.0],
+                offset: 0.3,
+            },
+            JumpPlane {
+                normal: [1.0, 0.0],
+                offset: 0.4,
+            },
+        ];
+        let Err(error) = neumann_points(square.clone(), 1, &planes) else {
+            panic!("two planes through one facet are refused");
+        };
+        assert!(
+            error
+                .to_string()
+                .contains("two jump planes cross the boundary facet"),
+            "{error}"
+        );
+        // bulge the top edge from (0.25, 1) to (0.5, 1) outwards
+        let (a, b) = (
+            square
+                .vertices()
+                .iter()
+                .position(|v| *v == [0.25, 1.0])
+                .unwrap(),
+            square
+                .vertices()
+                .iter()
+                .position(|v| *v == [0.5, 1.0])
+                .unwrap(),
+        );
+        let curved = square.with_curved_edges([((a, b), [0.375, 1.02])]).unwrap();
+        let plane = [JumpPlane {
+            normal: [1.0, 0.0],
+            offset: 0.3,
+        }];
+        let Err(error) = neumann_points(curved.clone(), 2, &plane) else {
+            panic!("a plane through a curved facet is refused");
+        };
+        assert!(
+            error
+                .to_string()
+                .contains("crosses the curved boundary facet"),
+            "{error}"
+        );
+        // a plane through a straight facet of the same mesh is taken
+        let plane = [JumpPlane {
+            normal: [1.0, 0.0],
+            offset: 0.6,
+        }];
+        assert!(neumann_points(curved, 2, &plane).is_ok());
+    }
 
     fn unit<const D: usize>(k: usize) -> SVector<f64, D> {
         SVector::<f64, D>::from_fn(|i, _| if i == k { 1.0 } else { 0.0 })

@@ -14,10 +14,11 @@
 //! when their fields ask for it, are evaluated ahead for a block of step times ([`BulkData`]),
 //! bitwise the same values.
 
+use crate::error::Result;
 use crate::fem::mesh::BoundaryPart;
 use crate::fem::quadrature::QuadratureRule;
 use crate::fem::space::{FacetRule, LagrangeSpace, Tabulation};
-use crate::model::problem::{Data, Model};
+use crate::model::problem::{Data, JumpPlane, Model};
 use crate::scheme::assembly::{field_strain, physical_gradients, FacetPoints};
 use crate::scheme::state::State;
 use nalgebra::{SMatrix, SVector};
@@ -93,6 +94,14 @@ impl<const D: usize> BulkData<D> {
 impl<const D: usize> LoadQuadrature<D> {
     /// Rules of degree 2l + 2 on cells and facets of `space`.
     pub fn new(space: &LagrangeSpace<D>) -> Self {
+        Self::with_jump_planes(space, &[]).expect("no plane splits a facet, so no facet is refused")
+    }
+
+    /// As [`LoadQuadrature::new`], with the boundary facets that a plane of
+    /// [`Data::jump_planes`] crosses integrated piecewise, each side by the full rule. Refused,
+    /// naming the facet and the plane: a plane that crosses a curved facet, two planes that cross
+    /// one facet.
+    pub fn with_jump_planes(space: &LagrangeSpace<D>, planes: &[JumpPlane<D>]) -> Result<Self> {
         let degree = 2 * space.degree() + 2;
         let tabulation =
             Tabulation::cell_rule(space.element(), &QuadratureRule::<D>::simplex(degree));
@@ -112,19 +121,25 @@ impl<const D: usize> LoadQuadrature<D> {
             .collect();
         let mesh = space.mesh();
         let rule = FacetRule::new(D, degree);
-        Self {
-            neumann: FacetPoints::new(space, &rule, |f| {
-                mesh.facet_part(f) == BoundaryPart::Neumann
-            }),
-            contact: FacetPoints::new(space, &rule, |f| {
-                mesh.facet_part(f) == BoundaryPart::Contact
-            }),
-            boundary: FacetPoints::new(space, &rule, |_| true),
+        Ok(Self {
+            neumann: FacetPoints::split_at(
+                space,
+                &rule,
+                |f| mesh.facet_part(f) == BoundaryPart::Neumann,
+                planes,
+            )?,
+            contact: FacetPoints::split_at(
+                space,
+                &rule,
+                |f| mesh.facet_part(f) == BoundaryPart::Contact,
+                planes,
+            )?,
+            boundary: FacetPoints::split_at(space, &rule, |_| true, planes)?,
             tabulation,
             points,
             weights,
             values_by_node,
-        }
+        })
     }
 
     /// The first quadrature point of the loads (cell-major order) at which `reject(β)` holds
@@ -642,6 +657,7 @@ mod tests {
             dirichlet: Vec::new(),
             initial_displacement: Arc::new(|_| [0.0; D]),
             initial_damage: Arc::new(|_| 1.0),
+            jump_planes: Vec::new(),
         }
     }
 

@@ -33,7 +33,7 @@ pub use crate::model::fields::{
     BoundaryScalarField, BoundaryVectorField, PointBoundaryVectorField, PointScalarField,
     ScalarField, StaticScalarField, StaticVectorField, VectorField,
 };
-pub use crate::model::problem::{Data, Model};
+pub use crate::model::problem::{Data, JumpPlane, Model};
 pub use state::State;
 /// Solver settings of both steps.
 #[derive(Debug, Clone, Copy, Default)]
@@ -256,7 +256,7 @@ impl<const D: usize> Simulation<D> {
             )?),
             DamageEvolution::Frozen => None,
         };
-        let loads = LoadQuadrature::new(&space);
+        let loads = LoadQuadrature::with_jump_planes(&space, &problem.data.jump_planes)?;
         let part_rule = FacetRule::new(D, 2 * space.degree() + 2);
         let part_facets = (0..dirichlet.parts.len())
             .map(|p| FacetPoints::new(&space, &part_rule, |f| dirichlet.facet_owner[f] == Some(p)))

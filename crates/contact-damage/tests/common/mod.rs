@@ -49,6 +49,7 @@ pub fn quiet_data<const D: usize>() -> Data<D> {
         dirichlet: Vec::new(),
         initial_displacement: Arc::new(|_| [0.0; D]),
         initial_damage: Arc::new(|_| 1.0),
+        jump_planes: Vec::new(),
     }
 }
 

@@ -225,6 +225,7 @@ impl<const D: usize> LoadExpressions<D> {
                 eval_vector(&initial_displacement, &point_values(x, &[]))
             }),
             initial_damage: Arc::new(move |x| initial_damage.eval_f64(&point_values(x, &[]))),
+            jump_planes: Vec::new(),
         }
     }
 }
