@@ -153,10 +153,10 @@ mod tests {
         }
     }
 
-    /// On the reference triangle (normalized to measure 1, λ1 = x, λ2 = y), the indicator of
-    /// x + 2y > c times x^a y^b integrates exactly: compared with a fine composite midpoint sum
-    /// would be inexact, so the check is the sum of both sides against the plain rule (exact for
-    /// the polynomial) and the area of each side against its closed form.
+    /// On the reference triangle (normalized to measure 1; λ1 = x, λ2 = y) cut by x + 2y = c:
+    /// the weights still add up to 1, polynomials x^a y^b over both sides integrate as with the
+    /// plain rule (exact for them), and the indicator of the side x + 2y < c integrates to that
+    /// side's area in closed form.
     #[test]
     fn split_triangle_keeps_the_integral_and_measures_each_side() {
         let rule = FacetRule::new(3, 6);

@@ -314,6 +314,26 @@ mod tests {
         )
     }
 
+    /// The unit square in 4 × 4 cells, clamped on x = 0 and y = 0, Γ2 on the other sides.
+    fn unit_square() -> Mesh<2> {
+        use BoundaryPart::{Dirichlet, Neumann};
+        Mesh::box_mesh(
+            [0.0; 2],
+            [1.0; 2],
+            [4, 4],
+            [[Dirichlet, Neumann], [Dirichlet, Neumann]],
+        )
+        .unwrap()
+    }
+
+    /// The plane x = offset in 2D.
+    fn plane_x(offset: f64) -> JumpPlane<2> {
+        JumpPlane {
+            normal: [1.0, 0.0],
+            offset,
+        }
+    }
+
     /// A traction that jumps across a plane inside the facets it crosses is integrated exactly
     /// once the plane is declared (each side by the full rule), and not without: in 2D x² on
     /// x > 0.3 of the top of the unit square, (1 − 0.3³)/3; in 3D the indicator of x + y > 0.7
@@ -322,19 +342,6 @@ mod tests {
     fn split_facet_points_integrate_a_jumping_traction_exactly() {
         use BoundaryPart::{Dirichlet, Neumann};
         for degree in [1, 2] {
-            let square = || {
-                Mesh::box_mesh(
-                    [0.0; 2],
-                    [1.0; 2],
-                    [4, 4],
-                    [[Dirichlet, Neumann], [Dirichlet, Neumann]],
-                )
-                .unwrap()
-            };
-            let plane = JumpPlane {
-                normal: [1.0, 0.0],
-                offset: 0.3,
-            };
             let traction = |x: &[f64; 2]| {
                 if x[1] > 1.0 - 1e-9 && x[0] > 0.3 {
                     x[0] * x[0]
@@ -343,9 +350,9 @@ mod tests {
                 }
             };
             let exact = (1.0 - 0.3_f64.powi(3)) / 3.0;
-            let split = neumann_points(square(), degree, &[plane]).unwrap();
+            let split = neumann_points(unit_square(), degree, &[plane_x(0.3)]).unwrap();
             assert!((facet_integral(&split, traction) - exact).abs() < 1e-14);
-            let plain = neumann_points(square(), degree, &[]).unwrap();
+            let plain = neumann_points(unit_square(), degree, &[]).unwrap();
             assert!((facet_integral(&plain, traction) - exact).abs() > 1e-4);
 
             let cube = || {
@@ -378,25 +385,8 @@ mod tests {
     /// facet, and a plane through a curved facet, are refused naming the facet.
     #[test]
     fn split_facet_points_refuse_two_planes_and_curved_facets() {
-        use BoundaryPart::{Dirichlet, Neumann};
-        let square = Mesh::box_mesh(
-            [0.0; 2],
-            [1.0; 2],
-            [4, 4],
-            [[Dirichlet, Neumann], [Dirichlet, Neumann]],
-        )
-        .unwrap();
-        let planes = [
-            JumpPlane {
-                normal: [1.0, 0.0],
-                offset: 0.3,
-            },
-            JumpPlane {
-                normal: [1.0, 0.0],
-                offset: 0.4,
-            },
-        ];
-        let Err(error) = neumann_points(square.clone(), 1, &planes) else {
+        let square = unit_square();
+        let Err(error) = neumann_points(square.clone(), 1, &[plane_x(0.3), plane_x(0.4)]) else {
             panic!("two planes through one facet are refused");
         };
         assert!(
@@ -406,24 +396,13 @@ mod tests {
             "{error}"
         );
         // bulge the top edge from (0.25, 1) to (0.5, 1) outwards
-        let (a, b) = (
-            square
-                .vertices()
-                .iter()
-                .position(|v| *v == [0.25, 1.0])
-                .unwrap(),
-            square
-                .vertices()
-                .iter()
-                .position(|v| *v == [0.5, 1.0])
-                .unwrap(),
-        );
-        let curved = square.with_curved_edges([((a, b), [0.375, 1.02])]).unwrap();
-        let plane = [JumpPlane {
-            normal: [1.0, 0.0],
-            offset: 0.3,
-        }];
-        let Err(error) = neumann_points(curved.clone(), 2, &plane) else {
+        let vertex = |x: [f64; 2]| square.vertices().iter().position(|v| *v == x).unwrap();
+        let edge = (vertex([0.25, 1.0]), vertex([0.5, 1.0]));
+        let curved = square
+            .clone()
+            .with_curved_edges([(edge, [0.375, 1.02])])
+            .unwrap();
+        let Err(error) = neumann_points(curved.clone(), 2, &[plane_x(0.3)]) else {
             panic!("a plane through a curved facet is refused");
         };
         assert!(
@@ -433,11 +412,7 @@ mod tests {
             "{error}"
         );
         // a plane through a straight facet of the same mesh is taken
-        let plane = [JumpPlane {
-            normal: [1.0, 0.0],
-            offset: 0.6,
-        }];
-        assert!(neumann_points(curved, 2, &plane).is_ok());
+        assert!(neumann_points(curved, 2, &[plane_x(0.6)]).is_ok());
     }
 
     fn unit<const D: usize>(k: usize) -> SVector<f64, D> {
