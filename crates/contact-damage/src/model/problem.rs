@@ -57,7 +57,8 @@ pub struct Data<const D: usize> {
     /// of a face, a friction traction at a stick–slip front): the facets a plane crosses are
     /// integrated piecewise, each side by the full rule
     /// ([`FacetRule::split`](crate::fem::space::FacetRule::split)), so the jump costs no
-    /// quadrature error. Straight facets only; at most one plane per facet. Empty: none.
+    /// quadrature error. Straight facets only; at most one plane per facet; a zero or non-finite
+    /// normal or a non-finite offset is refused. Empty: none.
     pub jump_planes: Vec<JumpPlane<D>>,
 }
 

@@ -182,6 +182,16 @@ impl<const D: usize> FacetPoints<D> {
         select: impl Fn(usize) -> bool,
         planes: &[JumpPlane<D>],
     ) -> Result<Self> {
+        for (k, plane) in planes.iter().enumerate() {
+            let finite = plane.normal.iter().all(|n| n.is_finite()) && plane.offset.is_finite();
+            if !finite || plane.normal.iter().all(|&n| n == 0.0) {
+                return Err(Error::parameter(
+                    format!("jump_planes[{k}] (normal {:?})", plane.normal),
+                    plane.offset,
+                    "a jump plane needs a finite, nonzero normal and a finite offset",
+                ));
+            }
+        }
         let mesh = space.mesh();
         let element = space.element();
         let n = element.num_nodes();
@@ -382,7 +392,8 @@ mod tests {
     }
 
     /// A facet is split along one plane, and only where it is straight: two planes through one
-    /// facet, and a plane through a curved facet, are refused naming the facet.
+    /// facet, and a plane through a curved facet, are refused naming the facet; a plane without
+    /// a finite nonzero normal and a finite offset is refused naming it.
     #[test]
     fn split_facet_points_refuse_two_planes_and_curved_facets() {
         let square = unit_square();
@@ -413,6 +424,23 @@ mod tests {
         );
         // a plane through a straight facet of the same mesh is taken
         assert!(neumann_points(curved, 2, &[plane_x(0.6)]).is_ok());
+        // a plane with no normal, or with a non-finite datum, is no plane
+        for plane in [
+            JumpPlane {
+                normal: [0.0, 0.0],
+                offset: 0.3,
+            },
+            JumpPlane {
+                normal: [f64::NAN, 1.0],
+                offset: 0.3,
+            },
+            plane_x(f64::INFINITY),
+        ] {
+            let Err(error) = neumann_points(unit_square(), 1, &[plane]) else {
+                panic!("{plane:?} is refused");
+            };
+            assert!(error.to_string().contains("jump_planes[0]"), "{error}");
+        }
     }
 
     fn unit<const D: usize>(k: usize) -> SVector<f64, D> {
