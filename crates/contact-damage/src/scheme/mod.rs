@@ -241,11 +241,13 @@ impl<const D: usize> Simulation<D> {
             contact.clone(),
             dirichlet.constrained.clone(),
         )?;
-        if problem.settings.contact == ContactTreatment::Implicit && model.viscosity.is_linear() {
-            // the Newton tangents of the implicit normal compliance change the contact block
-            // of the factor only: keep the body's factor for the whole run
-            velocity.eliminate_normals_last()?;
-        }
+        // the Newton tangents of the implicit normal compliance with a linear 𝒜 change the
+        // contact block of the factor only: keep the body's factor for the whole run; without
+        // friction the tangential contact unknowns are ordinary unknowns
+        velocity.arrange_contact(
+            !model.contact.is_frictionless(),
+            problem.settings.contact == ContactTreatment::Implicit && model.viscosity.is_linear(),
+        )?;
         let time_step = problem.final_time / problem.steps as f64;
         let damage = match problem.settings.damage_evolution {
             DamageEvolution::Parabolic => Some(DamageOperator::new(

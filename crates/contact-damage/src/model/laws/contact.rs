@@ -17,6 +17,12 @@ pub trait ContactLaw: Send + Sync {
     fn normal_stiffness(&self, penetration: f64) -> f64;
     /// p_τ(r).
     fn friction_bound(&self, penetration: f64) -> f64;
+    /// True when p_τ ≡ 0 (frictionless contact): the velocity step then has no friction term
+    /// and its tangential contact unknowns are ordinary unknowns. The default, false, is always
+    /// safe.
+    fn is_frictionless(&self) -> bool {
+        false
+    }
     /// Checks the parameters against (3.7).
     fn validate(&self) -> Result<()>;
 }
@@ -52,6 +58,10 @@ impl ContactLaw for NormalComplianceCoulomb {
     fn friction_bound(&self, penetration: f64) -> f64 {
         let pressure = self.normal_pressure(penetration);
         self.friction * pressure * (1.0 - self.wear * pressure).max(0.0)
+    }
+    /// μ = 0.
+    fn is_frictionless(&self) -> bool {
+        self.friction == 0.0
     }
     fn validate(&self) -> Result<()> {
         check_finite("contact.stiffness", self.stiffness)?;

@@ -197,6 +197,10 @@ impl<const D: usize> VelocityOperator<D> {
         stats: &mut VelocityStats,
     ) -> Result<Vec<f64>> {
         let mut x: Vec<f64> = self.tangential.iter().map(|&dof| start[dof]).collect();
+        if self.tangential.is_empty() {
+            // frictionless (`without_friction`; `solve` refused positive bounds)
+            return Ok(x);
+        }
         let problem = CondensedFriction {
             matrix: self.schur.as_ref(),
             rhs: reduced_rhs,

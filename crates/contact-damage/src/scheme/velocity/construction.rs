@@ -163,17 +163,41 @@ impl<const D: usize> VelocityOperator<D> {
         Ok(operator)
     }
 
+    /// Drops the friction term of (5.1) (a contact law with p_τ ≡ 0, μ = 0): the tangential
+    /// contact unknowns become ordinary unknowns, eliminated where the fill-reducing order puts
+    /// them, and no condensed friction problem is solved (a new symbolic analysis). A step
+    /// with a positive friction bound is then refused.
+    pub fn without_friction(&mut self) -> Result<()> {
+        self.arrange_contact(false, self.normals_last)
+    }
+
     /// Moves the normal contact unknowns to the trailing block of the factor, just before the
     /// tangential ones (a new symbolic analysis). With a linear 𝒜 and the implicit normal
     /// compliance, a Newton tangent H + D then changes only that block: each Newton iteration
     /// factorizes the dense Schur complement S_c + D of the contact unknowns instead of the
     /// whole body.
     pub fn eliminate_normals_last(&mut self) -> Result<()> {
-        if !self.normals_last {
-            self.normals_last = true;
-            self.analyse()?;
+        self.arrange_contact(!self.tangential.is_empty(), true)
+    }
+
+    /// [`Self::without_friction`] (`friction = false`) and [`Self::eliminate_normals_last`]
+    /// (`normals_last = true`) in one symbolic analysis, done only if something changes.
+    pub fn arrange_contact(&mut self, friction: bool, normals_last: bool) -> Result<()> {
+        let drop_friction = !friction && !self.tangential.is_empty();
+        if !drop_friction && normals_last == self.normals_last {
+            return Ok(());
         }
-        Ok(())
+        if friction && self.tangential.is_empty() && !self.contact.is_empty() {
+            return Err(Error::InvalidInput(
+                "velocity operator: friction cannot be restored once dropped".into(),
+            ));
+        }
+        if drop_friction {
+            self.tangential.clear();
+            self.schur = Mat::zeros(0, 0);
+        }
+        self.normals_last = normals_last;
+        self.analyse()
     }
 
     /// The symbolic analysis: a fill-reducing node order with the contact unknowns last. In 3D

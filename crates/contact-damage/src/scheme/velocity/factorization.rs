@@ -87,14 +87,14 @@ impl<const D: usize> VelocityOperator<D> {
     /// unknowns are not the contact ones (then [`Self::factorize`] falls back to m solves).
     pub(super) fn schur_from_trailing_factor(&self) -> Option<(Mat<f64>, TrailingFactor)> {
         let m = self.tangential.len();
-        if m == 0 {
-            return None;
-        }
         let leading = if self.normals_last {
             self.contact.len()
         } else {
             0
         };
+        if leading + m == 0 {
+            return None;
+        }
         let (trailing, unknowns) = self.solver.trailing_factor(leading + m)?;
         let mut position = vec![usize::MAX; self.size()];
         for (i, &dof) in self.tangential.iter().enumerate() {

@@ -36,6 +36,17 @@ impl<const D: usize> VelocityOperator<D> {
             }
         }
         let weights = self.friction_weights(data.friction_bound)?;
+        if self.tangential.is_empty() && !self.contact.is_empty() {
+            if let Some(k) = weights.iter().position(|&w| w > 0.0) {
+                return Err(Error::InvalidInput(format!(
+                    "velocity step: friction bound {} at contact node {} ({:?}), but the operator \
+                     was built without friction (the contact law has μ = 0)",
+                    data.friction_bound[k],
+                    self.contact.nodes[k],
+                    self.space.node(self.contact.nodes[k])
+                )));
+            }
+        }
         self.implicit.clone_from(&data.implicit_contact);
         if self.implicit.is_some() {
             // the tangent depends on the step's penetrations, not only on v
