@@ -78,6 +78,7 @@ mod frames;
 mod kkt;
 mod newton;
 mod operator;
+mod reduction;
 mod step;
 mod types;
 
@@ -158,12 +159,14 @@ mod tests {
     }
 
     /// Both ways of solving the condensed model of (5.1), on random loads and friction bounds
-    /// (stick and slip nodes), plain and as a refinement pass: the one-solve path with the
-    /// trailing factor and the two-solve path.
+    /// (stick and slip nodes, and a share `without_friction` of the nodes with none), plain and
+    /// as a refinement pass: the one-solve path with the trailing factor (condensed onto the
+    /// nodes with friction when they are at most half) and the two-solve path with S.
     fn assert_one_solve_path_matches_two_solves<const D: usize>(
         mut operator: VelocityOperator<D>,
         seed: u64,
         largest_bound: f64,
+        without_friction: f64,
     ) {
         operator.factorize().unwrap();
         assert!(
@@ -175,8 +178,25 @@ mod tests {
         let m = operator.tangential.len();
         let rhs: Vec<f64> = (0..n).map(|_| random.range(-1.0, 1.0)).collect();
         let weights: Vec<f64> = (0..m / (D - 1))
-            .map(|_| random.range(0.0, largest_bound))
+            .map(|_| {
+                let bound = random.range(0.0, largest_bound);
+                if random.range(0.0, 1.0) < without_friction {
+                    0.0
+                } else {
+                    bound
+                }
+            })
             .collect();
+        operator.prepare_condensation(&weights).unwrap();
+        let with_friction = weights.iter().filter(|&&w| w > 0.0).count();
+        assert_eq!(
+            operator.reduction.is_some(),
+            2 * with_friction <= weights.len(),
+            "condensed onto the nodes with friction exactly when they are at most half"
+        );
+        assert!(without_friction < 0.5 || operator.reduction.is_some());
+        // the two-solve path condenses onto all of Γ3 with S
+        operator.ensure_schur().unwrap();
         let base: Vec<f64> = (0..n).map(|_| random.range(-0.1, 0.1)).collect();
         let settings = FrictionSettings::default();
         for base in [None, Some(base.as_slice())] {
@@ -229,13 +249,25 @@ mod tests {
     #[test]
     fn one_solve_velocity_step_matches_two_solves_2d() {
         let mesh = square_with_contact([96, 48]);
-        assert_one_solve_path_matches_two_solves(operator(mesh), 7, 0.5);
+        assert_one_solve_path_matches_two_solves(operator(mesh), 7, 0.5, 0.0);
     }
 
     #[test]
     fn one_solve_velocity_step_matches_two_solves_3d() {
         let mesh = cube_with_contact([6; 3]);
-        assert_one_solve_path_matches_two_solves(operator(mesh), 11, 20.0);
+        assert_one_solve_path_matches_two_solves(operator(mesh), 11, 20.0, 0.0);
+    }
+
+    #[test]
+    fn velocity_step_condensed_onto_the_nodes_with_friction_matches_two_solves_2d() {
+        let mesh = square_with_contact([96, 48]);
+        assert_one_solve_path_matches_two_solves(operator(mesh), 13, 0.5, 0.7);
+    }
+
+    #[test]
+    fn velocity_step_condensed_onto_the_nodes_with_friction_matches_two_solves_3d() {
+        let mesh = cube_with_contact([6; 3]);
+        assert_one_solve_path_matches_two_solves(operator(mesh), 17, 20.0, 0.7);
     }
 
     #[test]

@@ -3,7 +3,7 @@
 
 use super::operator::{TrailingFactor, VelocityOperator};
 use super::types::VelocityStats;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::solvers::friction::{CondensedFriction, FrictionSettings};
 use faer::Mat;
 
@@ -54,7 +54,7 @@ impl<const D: usize> VelocityOperator<D> {
             return Ok(free);
         }
         // condensed rhs r_c = S (H^{-1} b)_c
-        let reduced_rhs = self.schur_times_tangential(&free);
+        let reduced_rhs = self.schur_times_tangential(&free)?;
         let x = self.condensed_friction(
             &reduced_rhs,
             weights,
@@ -116,35 +116,99 @@ impl<const D: usize> VelocityOperator<D> {
             z_c = mapped;
         }
         let factor_tt = trailing.factor.as_ref().submatrix(leading, leading, m, m);
-        let condensed = sequential_product(factor_tt, z_c.as_ref().subrows(leading, m));
-        let mut reduced_rhs = vec![0.0; m];
-        for (p, &i) in trailing.index.iter().enumerate() {
-            reduced_rhs[i] = condensed[(p, 0)];
-        }
-        if let Some(v) = base {
-            // a refinement pass: the velocity is v + H⁻¹ r, so S (v_c + (H⁻¹ r)_c)
-            for (value, schur_v) in reduced_rhs.iter_mut().zip(self.schur_times_tangential(v)) {
-                *value += schur_v;
-            }
-        }
-        let x = self.condensed_friction(
-            &reduced_rhs,
-            weights,
-            start,
-            multipliers,
-            friction_settings,
-            stats,
-        )?;
         let g = D - 1;
-        let mut forces = Mat::<f64>::from_fn(m, 1, |p, _| {
-            let i = trailing.index[p];
-            weights[i / g] * multipliers[i]
-        });
-        faer::linalg::triangular_solve::solve_lower_triangular_in_place(
-            factor_tt,
-            forces.as_mut(),
-            faer::Par::Seq,
-        );
+        // the friction forces in the trailing block, L_tt⁻¹ (W λ)_c, and the tangential
+        // velocities of the condensed solution (index into `tangential`, value)
+        let (forces, tangential_solution) = match self
+            .reduction
+            .as_ref()
+            .filter(|reduction| reduction.generation == self.factor_generation)
+        {
+            Some(reduction) => {
+                // onto the nodes with friction: r̃ = S̃ (Yᵀ z_t + v_P)
+                let mut projected =
+                    sequential_product(reduction.y.transpose(), z_c.as_ref().subrows(leading, m));
+                if let Some(v) = base {
+                    for (j, &i) in reduction.unknowns.iter().enumerate() {
+                        projected[(j, 0)] += v[self.tangential[i]];
+                    }
+                }
+                let reduced_rhs: Vec<f64> =
+                    sequential_product(reduction.schur.as_ref(), projected.as_ref())
+                        .col(0)
+                        .iter()
+                        .copied()
+                        .collect();
+                let reduced_weights: Vec<f64> =
+                    reduction.groups.iter().map(|&k| weights[k]).collect();
+                let mut x: Vec<f64> = reduction
+                    .unknowns
+                    .iter()
+                    .map(|&i| start[self.tangential[i]])
+                    .collect();
+                let mut reduced_multipliers = vec![0.0; x.len()];
+                if !x.is_empty() {
+                    let problem = CondensedFriction {
+                        matrix: reduction.schur.as_ref(),
+                        rhs: &reduced_rhs,
+                        weights: &reduced_weights,
+                        group_size: g,
+                    };
+                    let friction = problem.solve_with_checked_matrix(
+                        &mut x,
+                        &mut reduced_multipliers,
+                        friction_settings,
+                    )?;
+                    stats.friction_iterations += friction.newton_iterations;
+                    stats.friction_gradient_iterations += friction.gradient_iterations;
+                }
+                // free nodes carry no friction force (λ = 0, as the friction solver returns)
+                multipliers.fill(0.0);
+                for (j, &i) in reduction.unknowns.iter().enumerate() {
+                    multipliers[i] = reduced_multipliers[j];
+                }
+                let weighted = Mat::<f64>::from_fn(x.len(), 1, |j, _| {
+                    weights[reduction.unknowns[j] / g] * reduced_multipliers[j]
+                });
+                let forces = sequential_product(reduction.y.as_ref(), weighted.as_ref());
+                let solution: Vec<(usize, f64)> =
+                    reduction.unknowns.iter().copied().zip(x).collect();
+                (forces, solution)
+            }
+            None => {
+                let condensed = sequential_product(factor_tt, z_c.as_ref().subrows(leading, m));
+                let mut reduced_rhs = vec![0.0; m];
+                for (p, &i) in trailing.index.iter().enumerate() {
+                    reduced_rhs[i] = condensed[(p, 0)];
+                }
+                if let Some(v) = base {
+                    // a refinement pass: the velocity is v + H⁻¹ r, so S (v_c + (H⁻¹ r)_c)
+                    for (value, schur_v) in
+                        reduced_rhs.iter_mut().zip(self.schur_times_tangential(v)?)
+                    {
+                        *value += schur_v;
+                    }
+                }
+                let x = self.condensed_friction(
+                    &reduced_rhs,
+                    weights,
+                    start,
+                    multipliers,
+                    friction_settings,
+                    stats,
+                )?;
+                let mut forces = Mat::<f64>::from_fn(m, 1, |p, _| {
+                    let i = trailing.index[p];
+                    weights[i / g] * multipliers[i]
+                });
+                faer::linalg::triangular_solve::solve_lower_triangular_in_place(
+                    factor_tt,
+                    forces.as_mut(),
+                    faer::Par::Seq,
+                );
+                (forces, x.into_iter().enumerate().collect())
+            }
+        };
         for p in 0..m {
             z_c[(leading + p, 0)] -= forces[(p, 0)];
         }
@@ -169,19 +233,27 @@ impl<const D: usize> VelocityOperator<D> {
             }
         }
         // the tangential unknowns are those of the condensed solution (exact zeros at stick nodes)
-        for (i, &dof) in self.tangential.iter().enumerate() {
-            solution[dof] = x[i];
+        for (i, value) in tangential_solution {
+            solution[self.tangential[i]] = value;
         }
         Ok(Some(solution))
     }
 
     /// S v_c: the Schur complement times the tangential contact part of `v` (in the order of
     /// `tangential`).
-    fn schur_times_tangential(&self, v: &[f64]) -> Vec<f64> {
+    fn schur_times_tangential(&self, v: &[f64]) -> Result<Vec<f64>> {
         let m = self.tangential.len();
         let v_c = Mat::<f64>::from_fn(m, 1, |i, _| v[self.tangential[i]]);
-        let product = sequential_product(self.schur.as_ref(), v_c.as_ref());
-        (0..m).map(|i| product[(i, 0)]).collect()
+        let product = sequential_product(self.schur()?.as_ref(), v_c.as_ref());
+        Ok((0..m).map(|i| product[(i, 0)]).collect())
+    }
+
+    /// S, formed by [`Self::prepare_condensation`] before a step solves with it.
+    fn schur(&self) -> Result<&Mat<f64>> {
+        self.schur.as_ref().ok_or_else(|| Error::LinearAlgebra {
+            context: "velocity step (5.1)".into(),
+            message: "the condensed operator S was not formed before the solve".into(),
+        })
     }
 
     /// The condensed friction problem of (5.1) with right-hand side `reduced_rhs` (in the order
@@ -202,7 +274,7 @@ impl<const D: usize> VelocityOperator<D> {
             return Ok(x);
         }
         let problem = CondensedFriction {
-            matrix: self.schur.as_ref(),
+            matrix: self.schur()?.as_ref(),
             rhs: reduced_rhs,
             weights,
             group_size: D - 1,

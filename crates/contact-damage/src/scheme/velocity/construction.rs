@@ -12,7 +12,6 @@ use crate::fem::space::{LagrangeSpace, Tabulation};
 use crate::model::contact::{fixed_axis_column, ContactNodes};
 use crate::model::laws::Viscosity;
 use faer::sparse::{Pair, SparseColMat};
-use faer::Mat;
 use std::sync::Arc;
 
 impl<const D: usize> VelocityOperator<D> {
@@ -145,7 +144,9 @@ impl<const D: usize> VelocityOperator<D> {
                 }
             })?,
             tangential,
-            schur: Mat::zeros(0, 0),
+            schur: None,
+            factor_generation: 0,
+            reduction: None,
             trailing: None,
             linearized_at: None,
             implicit: None,
@@ -194,7 +195,7 @@ impl<const D: usize> VelocityOperator<D> {
         }
         if drop_friction {
             self.tangential.clear();
-            self.schur = Mat::zeros(0, 0);
+            self.schur = None;
         }
         self.normals_last = normals_last;
         self.analyse()

@@ -28,14 +28,32 @@ impl<const D: usize> VelocityOperator<D> {
 
     /// Numeric factorization of the current matrix and the Schur complement on the tangential
     /// contact unknowns: Z = E_cᵀ H^{-1} E_c (block solves), S = Z^{-1}.
+    /// With a supernodal factor whose last unknowns are the contact ones, S is formed from its
+    /// trailing block only when a step needs it ([`Self::prepare_condensation`]).
     pub(super) fn factorize(&mut self) -> Result<()> {
         self.solver.factorize(&self.matrix)?;
-        (self.schur, self.trailing) = match self.schur_from_trailing_factor() {
-            Some((schur, trailing)) => (schur, Some(trailing)),
-            None => (self.schur_from_solves()?, None),
-        };
-        // checked once here; every step solves with it (`condensed_friction`)
-        CondensedFriction::validate_matrix(self.schur.as_ref())?;
+        self.factor_generation += 1;
+        self.trailing = self.trailing_from_factor();
+        self.schur = None;
+        if self.trailing.is_none() {
+            let schur = self.schur_from_solves()?;
+            // checked once here; every step solves with it (`condensed_friction`)
+            CondensedFriction::validate_matrix(schur.as_ref())?;
+            self.schur = Some(schur);
+        }
+        Ok(())
+    }
+
+    /// Forms S from the trailing factor if it is not held (checked once here, like the S of
+    /// [`Self::factorize`]).
+    pub(super) fn ensure_schur(&mut self) -> Result<()> {
+        if self.schur.is_none() {
+            if let Some(trailing) = &self.trailing {
+                let schur = self.tangential_schur(trailing);
+                CondensedFriction::validate_matrix(schur.as_ref())?;
+                self.schur = Some(schur);
+            }
+        }
         Ok(())
     }
 
@@ -85,7 +103,15 @@ impl<const D: usize> VelocityOperator<D> {
     /// S = L_tt L_ttᵀ from the trailing block of the factor (L_tt its tangential part), in the
     /// order of `tangential`, and that block; None when the factor is simplicial or its last
     /// unknowns are not the contact ones (then [`Self::factorize`] falls back to m solves).
+    #[cfg(test)]
     pub(super) fn schur_from_trailing_factor(&self) -> Option<(Mat<f64>, TrailingFactor)> {
+        let trailing = self.trailing_from_factor()?;
+        Some((self.tangential_schur(&trailing), trailing))
+    }
+
+    /// The trailing block of the factor when its last unknowns are the contact ones (see
+    /// [`TrailingFactor`]); None when the factor is simplicial or ordered otherwise.
+    pub(super) fn trailing_from_factor(&self) -> Option<TrailingFactor> {
         let m = self.tangential.len();
         let leading = if self.normals_last {
             self.contact.len()
@@ -122,7 +148,7 @@ impl<const D: usize> VelocityOperator<D> {
             plain: None,
             plain_schur: None,
         };
-        Some((self.tangential_schur(&trailing), trailing))
+        Some(trailing)
     }
 
     /// S = L_tt L_ttᵀ in the order of `tangential`, L_tt the tangential part of the trailing
@@ -192,10 +218,8 @@ impl<const D: usize> VelocityOperator<D> {
         trailing.factor = factor;
         trailing.plain = Some(plain);
         trailing.plain_schur = Some(plain_schur);
-        let trailing = self.trailing.take().expect("checked above");
-        self.schur = self.tangential_schur(&trailing);
-        self.trailing = Some(trailing);
-        CondensedFriction::validate_matrix(self.schur.as_ref())?;
+        self.schur = None;
+        self.factor_generation += 1;
         Ok(true)
     }
 
@@ -206,7 +230,8 @@ impl<const D: usize> VelocityOperator<D> {
         };
         if let Some(plain) = trailing.plain.take() {
             trailing.factor = plain;
-            self.schur = self.tangential_schur(&trailing);
+            self.schur = None;
+            self.factor_generation += 1;
         }
         self.trailing = Some(trailing);
     }

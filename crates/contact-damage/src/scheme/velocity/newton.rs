@@ -37,6 +37,7 @@ impl<const D: usize> VelocityOperator<D> {
                 self.factorize()?;
                 stats.factorizations += 1;
             }
+            self.prepare_condensation(weights)?;
             let refinement = stats.newton_iterations > 1;
             // A refinement pass also asks the condensed friction problem for more digits: its
             // residual is relative to its own right-hand side r_c, which can exceed the forces
@@ -176,6 +177,7 @@ impl<const D: usize> VelocityOperator<D> {
                 }
                 self.linearized_at = Some(velocity.clone());
             }
+            self.prepare_condensation(weights)?;
             // the Newton model around v in increment form: b − Hv = F − N(v)
             // (zero on the constrained unknowns: the iterates keep v_c = p_c)
             let minus_gradient: Vec<f64> = load

@@ -2,6 +2,7 @@
 //! accessors. It is built in `construction`, assembled in `assembly`, factorized in
 //! `factorization` and solved with in `step`, `newton` and `condensation`.
 
+use super::reduction::ReducedCondensation;
 use super::types::ImplicitNormalCompliance;
 use crate::algebra::linalg::{CholeskySolver, SparsityPattern};
 use crate::fem::space::{LagrangeSpace, Tabulation};
@@ -39,8 +40,15 @@ pub struct VelocityOperator<const D: usize> {
     pub(super) matrix: SparseColMat<usize, f64>,
     /// System indices of the tangential contact unknowns, (D−1) per contact node.
     pub(super) tangential: Vec<usize>,
-    /// S = (E_cᵀ H^{-1} E_c)^{-1} for the current factorization.
-    pub(super) schur: Mat<f64>,
+    /// S = (E_cᵀ H^{-1} E_c)^{-1} for the current factorization; with a trailing factor, formed
+    /// from it only when a step condenses onto all of Γ3 ([`Self::prepare_condensation`]).
+    pub(super) schur: Option<Mat<f64>>,
+    /// Counts the changes of the factor (numeric factorizations and Newton tangents of the
+    /// contact block): the key of `reduction`.
+    pub(super) factor_generation: u64,
+    /// The condensation onto the Γ3 nodes with friction of the current step, when most of Γ3
+    /// has none ([`ReducedCondensation`]).
+    pub(super) reduction: Option<ReducedCondensation>,
     /// The trailing block of a supernodal factor whose last unknowns are the tangential ones
     /// (then S = L_cc L_ccᵀ and a step needs one solve, [`Self::solve_model`]).
     pub(super) trailing: Option<TrailingFactor>,
