@@ -10,6 +10,9 @@
 //!   the block, its symmetry planes cutting the contact disc): the contact radius a and the peak
 //!   pressure p0 against a = (3PR/4E*)^(1/3), p0 = 3P/(2πa²) for the measured load P, over
 //!   graded Gmsh meshes and c_ν, with the Newton iterations per step;
+//! - `hemisphere`: a solid hemisphere on a flat (curved second-order mesh, P2, 42 k unknowns),
+//!   whole and as a quarter whose symmetry planes cut the contact disc: a and p0 against Hertz
+//!   and the quarter against the whole;
 //! - `cattaneo`: Cattaneo–Mindlin partial slip of the same half-disc shifted sideways after the
 //!   normal load: the stick half-width c against a √(1 − Q/(μP));
 //! - `mindlin3d`: Mindlin partial slip of the 3D sphere (half of the block, its symmetry plane
@@ -21,7 +24,7 @@
 //!   its direction tend to μP and the drag's as the whole face slips.
 //!
 //! ```text
-//! cargo run --release -p simulate --example validation -- [hertz|hertz3d|cattaneo|mindlin3d|sliding|sliding3d|all] [--quick]
+//! cargo run --release -p simulate --example validation -- [hertz|hertz3d|hemisphere|cattaneo|mindlin3d|sliding|sliding3d|all] [--quick]
 //! ```
 //!
 //! Each prints its table, writes it to `reports/validation/<name>.md` and draws an SVG beside
@@ -337,7 +340,7 @@ fn hertz(quick: bool) -> String {
 /// iterations of each step.
 struct Hertz3d {
     load: f64,
-    /// From the area of the contact zone of the quarter: √(4 · area/π).
+    /// From the area of the contact zone of the whole body: √(area/π).
     area_radius: f64,
     /// From the pressure profile along the radius y = 0 ([`pressure_ellipse`]).
     profile_radius: f64,
@@ -366,9 +369,14 @@ fn hertz3d_run(mesh: &str, stiffness: f64) -> Hertz3d {
         &replacements,
         &format!("hertz3d-{mesh}-{stiffness:e}"),
     );
+    hertz3d_result(&result, 4.0, 1.0, 1.0, 0.3)
+}
+
+/// The Hertz quantities of a 3D run that holds the share 1/`parts` of the body (4 for a
+/// quarter), for a sphere of radius `radius` and the material (`young`, `poisson`).
+fn hertz3d_result(result: &Run, parts: f64, radius: f64, young: f64, poisson: f64) -> Hertz3d {
     let last = result.history.last().unwrap();
-    // the quarter carries a quarter of the load
-    let load = 4.0 * last["force_z"];
+    let load = parts * last["force_z"];
     let records = read_contact_history(&result.out.join("contact_history.csv")).unwrap();
     let final_step = records.last().unwrap().step;
     let pressures: Vec<(f64, f64)> = records
@@ -378,12 +386,11 @@ fn hertz3d_run(mesh: &str, stiffness: f64) -> Hertz3d {
         .collect();
     let (peak, profile_radius) =
         pressure_ellipse(&pressures).expect("fewer than two nodes in the contact zone");
-    let (radius, young, poisson) = (1.0, 1.0, 0.3);
     let modulus = young / (1.0 - poisson * poisson);
     let hertz_radius = (3.0 * load * radius / (4.0 * modulus)).cbrt();
     Hertz3d {
         load,
-        area_radius: (4.0 * last["contact_zone"] / std::f64::consts::PI).sqrt(),
+        area_radius: (parts * last["contact_zone"] / std::f64::consts::PI).sqrt(),
         profile_radius,
         peak,
         hertz_radius,
@@ -396,6 +403,92 @@ fn hertz3d_run(mesh: &str, stiffness: f64) -> Hertz3d {
         pressures,
         seconds: result.seconds,
     }
+}
+
+/// The hemisphere on a flat (curved second-order mesh, P2), whole and as a quarter with its
+/// symmetry planes through the contact disc: against Hertz and against each other.
+fn hemisphere() -> String {
+    let template = std::fs::read_to_string(validation_dir().join("hemisphere.toml")).unwrap();
+    let mut table = String::from(
+        "Against a = (3PR/4E*)^(1/3) and p0 = 3P/(2πa²) for the measured load P (R = 1.5, E = 2, \
+         ν = 0.4, δ = 0.0075, c_ν = 1e6; the quarter's P is four times its load). a (area) is \
+         √(area/π) of the contact zone (of the four quarters), a (profile) the radius of the \
+         ellipse through the nodal pressures along y = 0, x > 0; p0 the largest nodal pressure.\n\n\
+         | model | P | a/R | a (area) | a (profile) | p0 | error a (area) | error a (profile) | error p0 | Newton per step | time |\n\
+         |---|---|---|---|---|---|---|---|---|---|---|\n",
+    );
+    let mut results = Vec::new();
+    for (model, mesh, parts) in [
+        ("whole", "hemisphere_h0.022.msh", 1.0),
+        ("quarter", "hemisphere_quarter_h0.022.msh", 4.0),
+    ] {
+        let mesh_path = validation_dir().join(mesh);
+        let mut replacements = vec![(
+            "file = \"hemisphere_h0.022.msh\"",
+            format!("file = \"{}\"", mesh_path.display()),
+        )];
+        if parts > 1.0 {
+            replacements.push((
+                "z = \"-delta*min(t, 1)\"\n",
+                "z = \"-delta*min(t, 1)\"\n\n[[displacement]]\npart = \"sym_x\"\nx = \"0\"\nsymmetry = true\n\n\
+                 [[displacement]]\npart = \"sym_y\"\ny = \"0\"\nsymmetry = true\n"
+                    .to_string(),
+            ));
+        }
+        let result = run(&template, &replacements, &format!("hemisphere-{model}"));
+        let h = hertz3d_result(&result, parts, 1.5, 2.0, 0.4);
+        let newton: Vec<String> = h.newton.iter().map(|n| n.to_string()).collect();
+        writeln!(
+            table,
+            "| {model} | {:.5e} | {:.4} | {:.5} | {:.5} | {:.5} | {:+.2} % | {:+.2} % | {:+.2} % | {} | {:.1} s |",
+            h.load,
+            h.hertz_radius / 1.5,
+            h.area_radius,
+            h.profile_radius,
+            h.peak,
+            percent(h.area_radius, h.hertz_radius),
+            percent(h.profile_radius, h.hertz_radius),
+            percent(h.peak, h.hertz_peak),
+            newton.join(", "),
+            h.seconds
+        )
+        .unwrap();
+        results.push(h);
+    }
+    let (whole, quarter) = (&results[0], &results[1]);
+    let fits: Vec<(f64, f64)> = results.iter().map(|h| pressure_fit(&h.pressures)).collect();
+    writeln!(
+        table,
+        "\nLeast-squares fit p² = p0² (1 − s²/a²) over the nodes of the profile with p > 0.2 max p: \
+         whole p0 = {:.5} ({:+.2} %), a = {:.5} ({:+.2} %); quarter p0 = {:.5} ({:+.2} %), a = {:.5} ({:+.2} %).",
+        fits[0].0,
+        percent(fits[0].0, whole.hertz_peak),
+        fits[0].1,
+        percent(fits[0].1, whole.hertz_radius),
+        fits[1].0,
+        percent(fits[1].0, quarter.hertz_peak),
+        fits[1].1,
+        percent(fits[1].1, quarter.hertz_radius),
+    )
+    .unwrap();
+    writeln!(
+        table,
+        "\nQuarter against whole: P {:+.3} %, a (area) {:+.3} %, a (profile) {:+.3} %, p0 {:+.3} %.",
+        percent(quarter.load, whole.load),
+        percent(quarter.area_radius, whole.area_radius),
+        percent(quarter.profile_radius, whole.profile_radius),
+        percent(quarter.peak, whole.peak),
+    )
+    .unwrap();
+    pressure_svg(
+        &report_dir().join("hemisphere_pressure.svg"),
+        &whole.pressures,
+        whole.hertz_radius,
+        whole.hertz_peak,
+        "Hemisphere on a flat: pressure along a radius",
+        "whole hemisphere, curved P2, h = 0.022 at the contact, c_ν = 1e6, ν = 0.4",
+    );
+    table
 }
 
 /// The 3D Hertz validation: a table over meshes × c_ν and the pressure along a radius.
@@ -446,6 +539,31 @@ fn hertz3d(quick: bool) -> String {
         &format!("h = {mesh}, c_ν = {stiffness:.0e}, ν = 0.3"),
     );
     table
+}
+
+/// The least-squares fit p² = A + B s² over the nodal pressures with p > 0.2 max p: the peak
+/// p0 = √A and the radius a = √(−A/B).
+fn pressure_fit(pressures: &[(f64, f64)]) -> (f64, f64) {
+    let largest = pressures.iter().fold(0.0f64, |m, p| m.max(p.1));
+    let points: Vec<(f64, f64)> = pressures
+        .iter()
+        .filter(|(_, p)| *p > 0.2 * largest)
+        .map(|(s, p)| (s * s, p * p))
+        .collect();
+    let count = points.len() as f64;
+    let (sx, sy) = points
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x, b + y));
+    let (mean_x, mean_y) = (sx / count, sy / count);
+    let (covariance, variance) = points.iter().fold((0.0, 0.0), |(c, v), (x, y)| {
+        (
+            c + (x - mean_x) * (y - mean_y),
+            v + (x - mean_x) * (x - mean_x),
+        )
+    });
+    let slope = covariance / variance;
+    let intercept = mean_y - slope * mean_x;
+    (intercept.sqrt(), (-intercept / slope).sqrt())
 }
 
 /// The computed nodal pressures against the Hertz profile p0 √(1 − x²/a²).
@@ -895,6 +1013,9 @@ fn main() {
     }
     if which == "hertz3d" || which == "all" {
         reports.push(("hertz3d", hertz3d(quick)));
+    }
+    if which == "hemisphere" || which == "all" {
+        reports.push(("hemisphere", hemisphere()));
     }
     if which == "cattaneo" || which == "all" {
         reports.push(("cattaneo", cattaneo(quick)));

@@ -11,11 +11,22 @@
 //!   with e the unit vector from `from` to `to` — e.g. a radius of a Hertz contact from its
 //!   centre, on any mesh. A segment that no contact node lies near is an error.
 //!
+//! In 3D at P2 the vertices of the quadratic faces of Γ3 are left out of both: they carry no
+//! contact weight on flat faces and almost none on curved ones, so their p_ν is no traction.
+//!
 //! s also measures the extent of the contact zone (`zone_min`, `zone_max` of `history.csv`).
 
 use contact_damage::fem::mesh::BoundaryPart;
 use contact_damage::fem::space::LagrangeSpace;
 use contact_damage::model::contact::{ContactNodes, ContactStatus};
+
+/// Whether the contact node `node` is recorded on a line: not a vertex of a quadratic face in
+/// 3D. Those carry no contact weight on a flat face (and are no contact nodes) and almost none
+/// on a curved one, so their p_ν(u_ν − g) is no traction: the displacement there is held by the
+/// body alone (the contact zone ignores them too, see [`crate::zone`]).
+fn carries_pressure<const D: usize>(space: &LagrangeSpace<D>, node: usize) -> bool {
+    D < 3 || space.degree() < 2 || node >= space.mesh().num_vertices()
+}
 
 /// Names of the coordinate axes.
 pub(crate) const AXIS_NAMES: [&str; 3] = ["x", "y", "z"];
@@ -156,7 +167,9 @@ impl ContactLine {
         let in_plane: Vec<usize> = all.iter().copied().filter(|&i| i != normal).collect();
         let axis = axis_of_spread(&points, false, &in_plane);
         let mut description = format!("{} on Γ3", AXIS_NAMES[axis]);
-        let mut indices: Vec<usize> = (0..points.len()).collect();
+        let mut indices: Vec<usize> = (0..points.len())
+            .filter(|&k| carries_pressure(space, contact.nodes[k]))
+            .collect();
         if D == 3 {
             let across = in_plane[0] + in_plane[1] - axis;
             let (low, high) = points
@@ -208,7 +221,7 @@ impl ContactLine {
                 .sqrt()
         };
         let indices: Vec<usize> = (0..points.len())
-            .filter(|&k| distance(&points[k]) <= width)
+            .filter(|&k| carries_pressure(space, contact.nodes[k]) && distance(&points[k]) <= width)
             .collect();
         let (from, to) = (point_label(&segment.from), point_label(&segment.to));
         if indices.is_empty() {
