@@ -18,7 +18,9 @@ use contact_damage::fem::mesh::{BoundaryPart, Mesh};
 use contact_damage::fem::space::LagrangeSpace;
 use contact_damage::model::contact::{ContactNodes, ContactStatus};
 use contact_damage::model::laws::{LinearViscosity, SaturatingViscosity};
-use contact_damage::scheme::velocity::{VelocityData, VelocityOperator, VelocitySettings};
+use contact_damage::scheme::velocity::{
+    TangentUpdate, VelocityData, VelocityOperator, VelocitySettings,
+};
 use proptest::prelude::*;
 use std::sync::Arc;
 
@@ -48,9 +50,12 @@ struct Outcome {
     iterations: usize,
     history: Vec<f64>,
     statuses: Vec<ContactStatus>,
+    velocity: Vec<f64>,
+    factorizations: usize,
 }
 
-/// Solves one velocity step with random data and a random start of size `start_size`.
+/// Solves one velocity step with random data and a random start of size `start_size`, by
+/// exact Newton.
 fn solve_random<const D: usize>(
     mesh: Mesh<D>,
     degree: usize,
@@ -58,6 +63,27 @@ fn solve_random<const D: usize>(
     regime: Regime,
     seed: u64,
     start_size: f64,
+) -> Outcome {
+    solve_random_with(
+        mesh,
+        degree,
+        law,
+        regime,
+        seed,
+        start_size,
+        TangentUpdate::Newton,
+    )
+}
+
+/// [`solve_random`] with the tangent updated as `tangent` says.
+fn solve_random_with<const D: usize>(
+    mesh: Mesh<D>,
+    degree: usize,
+    law: SaturatingViscosity,
+    regime: Regime,
+    seed: u64,
+    start_size: f64,
+    tangent: TangentUpdate,
 ) -> Outcome {
     let mut rng = Random::new(seed);
     let space = Arc::new(LagrangeSpace::new(Arc::new(mesh), degree).unwrap());
@@ -75,9 +101,11 @@ fn solve_random<const D: usize>(
         prescribed: None,
     };
     let start: Vec<f64> = (0..n).map(|_| start_size * rng.symmetric()).collect();
-    let solution = operator
-        .solve(&data, &start, &VelocitySettings::default())
-        .unwrap();
+    let settings = VelocitySettings {
+        tangent,
+        ..VelocitySettings::default()
+    };
+    let solution = operator.solve(&data, &start, &settings).unwrap();
     // stationarity N(v) − F + E_c W λ in the system frame, recomputed
     let force = operator.to_system(&internal_force(&space, &law, &solution.velocity));
     let v = operator.to_system(&solution.velocity);
@@ -121,6 +149,8 @@ fn solve_random<const D: usize>(
         iterations: solution.stats.newton_iterations,
         history: solution.stats.residual_history,
         statuses: solution.status,
+        velocity: solution.velocity,
+        factorizations: solution.stats.factorizations,
     }
 }
 
@@ -227,4 +257,58 @@ fn nonlinear_velocity_step_converges_superlinearly() {
         "ratios {ratios:?} of history {history:?}"
     );
     assert!(outcome.kkt <= KKT_TARGET);
+}
+
+/// The frozen tangent (the default) reaches the solution of exact Newton, certified to the same
+/// KKT target, with fewer factorizations: on the smooth case of the test above and on a step
+/// with stick and slip, in 2D and 3D (observed: velocities equal to 6e-14 of their size or
+/// closer, one or two factorizations against four to six).
+#[test]
+fn frozen_tangent_reaches_the_newton_solution_with_fewer_factorizations() {
+    let cases: [(Regime, u64); 2] = [(Regime::NoContact, 3), (Regime::Mixed, 5)];
+    for (regime, seed) in cases {
+        for dim in [2, 3] {
+            let solve = |tangent| {
+                if dim == 2 {
+                    solve_random_with(
+                        common::square(8),
+                        2,
+                        saturating(true),
+                        regime,
+                        seed,
+                        1.0,
+                        tangent,
+                    )
+                } else {
+                    solve_random_with(
+                        common::cube(3),
+                        2,
+                        saturating(true),
+                        regime,
+                        seed,
+                        1.0,
+                        tangent,
+                    )
+                }
+            };
+            let (newton, frozen) = (solve(TangentUpdate::Newton), solve(TangentUpdate::Frozen));
+            assert!(frozen.kkt <= KKT_TARGET && frozen.reported <= KKT_TARGET);
+            let size = newton.velocity.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+            let difference = newton
+                .velocity
+                .iter()
+                .zip(&frozen.velocity)
+                .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+            assert!(
+                difference <= 1e-9 * size,
+                "{regime:?}, {dim}D: velocities differ by {difference:e} of {size:e}"
+            );
+            assert!(
+                frozen.factorizations < newton.factorizations,
+                "{regime:?}, {dim}D: {} factorizations frozen, {} Newton",
+                frozen.factorizations,
+                newton.factorizations
+            );
+        }
+    }
 }

@@ -85,7 +85,8 @@ mod types;
 pub use newton::NEWTON_HEADROOM;
 pub use operator::VelocityOperator;
 pub use types::{
-    ImplicitNormalCompliance, VelocityData, VelocitySettings, VelocitySolution, VelocityStats,
+    ImplicitNormalCompliance, TangentUpdate, VelocityData, VelocitySettings, VelocitySolution,
+    VelocityStats,
 };
 
 #[cfg(test)]

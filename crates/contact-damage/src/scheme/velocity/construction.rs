@@ -149,6 +149,7 @@ impl<const D: usize> VelocityOperator<D> {
             reduction: None,
             trailing: None,
             linearized_at: None,
+            frozen_contraction: f64::INFINITY,
             implicit: None,
             matrix_is_plain: true,
             normals_last: false,

@@ -3,7 +3,7 @@
 //! documentation of [`crate::scheme::velocity`]).
 
 use super::operator::VelocityOperator;
-use super::types::{VelocitySettings, VelocityStats};
+use super::types::{TangentUpdate, VelocitySettings, VelocityStats};
 use crate::algebra::linalg::{dot, multiply_symmetric};
 use crate::error::{Error, Result};
 use crate::solvers::friction::FrictionSettings;
@@ -165,7 +165,19 @@ impl<const D: usize> VelocityOperator<D> {
                 ));
             }
             stats.newton_iterations += 1;
-            if self.linearized_at.as_deref() != Some(velocity.as_slice()) {
+            let stale = self.linearized_at.as_deref() != Some(velocity.as_slice());
+            let refresh = stale
+                && match settings.tangent {
+                    TangentUpdate::Newton => true,
+                    // keep a tangent of this law (not H, not after a reset) while it contracts
+                    TangentUpdate::Frozen => {
+                        self.law.is_linear()
+                            || self.matrix_is_plain
+                            || self.linearized_at.is_none()
+                            || self.frozen_contraction > FAST_REDUCTION
+                    }
+                };
+            if refresh {
                 if self.linearize_contact_in_trailing(&velocity)? {
                     // linear 𝒜, implicit contact: only the contact block changes
                     stats.contact_block_factorizations += 1;
@@ -254,6 +266,7 @@ impl<const D: usize> VelocityOperator<D> {
                     "velocity step (5.1), proximal Newton (no step decreases the KKT residual or J: rounding level)",
                 ));
             };
+            self.frozen_contraction = evaluated.residual / point.residual;
             velocity = next;
             point = evaluated;
             history.push(point.residual);

@@ -54,6 +54,9 @@ pub struct VelocityOperator<const D: usize> {
     pub(super) trailing: Option<TrailingFactor>,
     /// The velocity at which H was last assembled (nonlinear 𝒜).
     pub(super) linearized_at: Option<Vec<f64>>,
+    /// The KKT residual's ratio over the last accepted step of the nonlinear iteration: a
+    /// frozen tangent ([`super::TangentUpdate::Frozen`]) is kept while it is at most ½.
+    pub(super) frozen_contraction: f64,
     /// The implicit normal compliance of the current step, if any.
     pub(super) implicit: Option<ImplicitNormalCompliance>,
     /// True while `matrix` is the plain viscous operator (false after a Newton tangent).

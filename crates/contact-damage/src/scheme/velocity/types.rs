@@ -14,6 +14,8 @@ pub struct VelocitySettings {
     pub max_newton: usize,
     /// Settings of the condensed friction solver.
     pub friction: FrictionSettings,
+    /// How a nonlinear 𝒜's tangent is updated between iterations.
+    pub tangent: TangentUpdate,
 }
 
 impl Default for VelocitySettings {
@@ -22,8 +24,24 @@ impl Default for VelocitySettings {
             tolerance: 1e-10,
             max_newton: 50,
             friction: FrictionSettings::default(),
+            tangent: TangentUpdate::Frozen,
         }
     }
+}
+
+/// The model matrix of the proximal Newton iteration of a nonlinear 𝒜 (a linear 𝒜 and the
+/// implicit contact block always use their exact tangent).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum TangentUpdate {
+    /// The exact tangent at every iterate (assembled and factorized at each iteration).
+    Newton,
+    /// The last factorized tangent, kept across iterations and steps while an accepted step
+    /// at least halves the KKT residual, refreshed at the iterate otherwise (a frozen tangent:
+    /// any symmetric positive definite model keeps the globalization's convergence, at a
+    /// linear rate). The default: on the nonlinear manufactured cases it runs 1.3–2.3 times
+    /// faster than [`Self::Newton`] (`bench_tangent` in the performance guide).
+    #[default]
+    Frozen,
 }
 
 /// Statistics of one velocity step.
