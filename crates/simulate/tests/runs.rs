@@ -739,6 +739,11 @@ fn bad_problem_files_name_the_key() {
         ),
         (
             "[output]",
+            "[solver]\ntangent = \"bfgs\"\n[output]",
+            "key `solver.tangent`: must be \"frozen\" or \"newton\", got \"bfgs\"",
+        ),
+        (
+            "[output]",
             "[solver]\nfriction_tolerance = -1e-12\n[output]",
             "key `solver.friction_tolerance`",
         ),
@@ -914,7 +919,7 @@ fn pictures_show_damage_on_every_cell_and_the_contact_history_with_legends() {
 fn solver_settings_are_read_from_the_problem_file() {
     let text = EXAMPLE_2D.replace(
         "[output]",
-        "[solver]\nvelocity_tolerance = 1e-11\nmax_newton = 7\nfriction_tolerance = 1e-13\nfriction_max_newton = 30\nfriction_max_gradient = 500\ndamage_tolerance = 1e-13\ndamage_max_iterations = 40\ndamage_method = \"active-set\"\n[output]",
+        "[solver]\nvelocity_tolerance = 1e-11\nmax_newton = 7\nfriction_tolerance = 1e-13\nfriction_max_newton = 30\nfriction_max_gradient = 500\ndamage_tolerance = 1e-13\ndamage_max_iterations = 40\ndamage_method = \"active-set\"\ntangent = \"newton\"\n[output]",
     );
     let file = simulate::problem::parse_problem_file(&text, "solver.toml").unwrap();
     let setup = ProblemSetup::<2>::new(file, Path::new("solver.toml")).unwrap();
@@ -930,6 +935,10 @@ fn solver_settings_are_read_from_the_problem_file() {
         settings.damage.method,
         contact_damage::solvers::box_qp::BoxQpMethod::ActiveSet
     );
+    assert_eq!(
+        settings.velocity.tangent,
+        contact_damage::scheme::velocity::TangentUpdate::Newton
+    );
     // missing entries keep the defaults
     let file = simulate::problem::parse_problem_file(EXAMPLE_2D, "example.toml").unwrap();
     let setup = ProblemSetup::<2>::new(file, Path::new("example.toml")).unwrap();
@@ -941,6 +950,10 @@ fn solver_settings_are_read_from_the_problem_file() {
     assert_eq!(
         setup.problem.settings.damage.max_iterations,
         defaults.damage.max_iterations
+    );
+    assert_eq!(
+        setup.problem.settings.velocity.tangent,
+        contact_damage::scheme::velocity::TangentUpdate::Frozen
     );
 }
 

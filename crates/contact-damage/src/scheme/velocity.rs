@@ -20,8 +20,11 @@
 //! R_c = ⟨𝒜ε(v), ε(φ_c)⟩ − F_c = ∫_Γ1 σν·φ_c dΓ (the force of the support on the body).
 //!
 //! **Algorithm.** Proximal Newton, a generalized Newton method on the whole nonsmooth system: at
-//! an iterate v_k the smooth part is replaced by its second-order model with the exact tangent
-//! matrix H_k = ∫ d𝒜(ε(v_k)) assembled at v_k, and the nonsmooth model problem
+//! an iterate v_k the smooth part is replaced by a quadratic model with an SPD matrix H_k — the
+//! exact tangent ∫ d𝒜(ε(v_k)) assembled at v_k ([`TangentUpdate::Newton`]), or the last
+//! assembled tangent, kept while each accepted step at least halves the KKT residual
+//! ([`TangentUpdate::Frozen`], the default: a linear rate, a factorization saved per
+//! iteration) — and the nonsmooth model problem
 //! min ½ dᵀH_k d + ⟨N(v_k) − F, d⟩ + Σ_a w_a |v_τ(a) + d_τ(a)| is condensed exactly onto the
 //! tangential contact unknowns c with the Schur complement S = (E_cᵀ H_k^{-1} E_c)^{-1} and
 //! solved exactly by [`crate::solvers::friction`]. It is solved in increment form (right-hand side

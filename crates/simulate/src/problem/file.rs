@@ -1,6 +1,7 @@
 //! The problem file as written in TOML: one struct per table (serde refuses unknown keys), the
 //! checks of `[solver]`, reading and parsing the file, and the error of a problem-file key.
 
+use contact_damage::scheme::velocity::TangentUpdate;
 use contact_damage::scheme::SchemeSettings;
 use contact_damage::solvers::box_qp::BoxQpMethod;
 use contact_input::file::parse_toml;
@@ -213,6 +214,9 @@ pub struct SolverFile {
     /// Algorithm of the damage step: `"multigrid"` (default) or `"active-set"`
     /// ([`contact_damage::solvers::box_qp::BoxQpMethod`]).
     pub damage_method: Option<String>,
+    /// Model matrix of the velocity step with a nonlinear 𝒜: `"frozen"` (default) or
+    /// `"newton"` ([`contact_damage::scheme::velocity::TangentUpdate`]).
+    pub tangent: Option<String>,
 }
 
 /// Largest tolerance accepted in `[solver]`: every variational inequality is solved to a
@@ -292,6 +296,19 @@ impl SolverFile {
                         origin,
                         "solver.damage_method",
                         format!("must be \"multigrid\" or \"active-set\", got \"{other}\""),
+                    ))
+                }
+            };
+        }
+        if let Some(tangent) = &self.tangent {
+            settings.velocity.tangent = match tangent.as_str() {
+                "frozen" => TangentUpdate::Frozen,
+                "newton" => TangentUpdate::Newton,
+                other => {
+                    return Err(problem_error(
+                        origin,
+                        "solver.tangent",
+                        format!("must be \"frozen\" or \"newton\", got \"{other}\""),
                     ))
                 }
             };

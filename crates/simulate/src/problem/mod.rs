@@ -57,6 +57,8 @@
 //! damage_method = "multigrid"     # box QP of (5.2): "multigrid" (truncated nonsmooth Newton
 //!                                 # multigrid, no factorization) or "active-set" (primal-dual
 //!                                 # active set with one Cholesky factor, supernodal in 3D)
+//! tangent = "frozen"              # model matrix of (5.1) with a nonlinear 𝒜: "frozen" (the
+//!                                 # last tangent, kept while it converges) or "newton" (exact)
 //! ```
 //!
 //! Tolerances must lie in (0, 1e-6]: a looser solve would compete with the discretization
