@@ -169,12 +169,14 @@ impl<const D: usize> VelocityOperator<D> {
             let refresh = stale
                 && match settings.tangent {
                     TangentUpdate::Newton => true,
-                    // keep a tangent of this law (not H, not after a reset) while it contracts
+                    // keep a tangent of this law (not H, not after a reset) while it contracts,
+                    // and go over to exact Newton in a step that has used half its iterations
                     TangentUpdate::Frozen => {
                         self.law.is_linear()
                             || self.matrix_is_plain
                             || self.linearized_at.is_none()
                             || self.frozen_contraction > FAST_REDUCTION
+                            || 2 * stats.newton_iterations > settings.max_newton
                     }
                 };
             if refresh {

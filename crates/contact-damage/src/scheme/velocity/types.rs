@@ -36,9 +36,10 @@ pub enum TangentUpdate {
     /// The exact tangent at every iterate (assembled and factorized at each iteration).
     Newton,
     /// The last factorized tangent, kept across iterations and steps while an accepted step
-    /// at least halves the KKT residual, refreshed at the iterate otherwise (a frozen tangent:
+    /// at least halves the KKT residual, refreshed at the iterate otherwise, and exact Newton
+    /// in a step past half of [`VelocitySettings::max_newton`] iterations (a frozen tangent:
     /// any symmetric positive definite model keeps the globalization's convergence, at a
-    /// linear rate). The default: on the nonlinear manufactured cases it runs 1.3–2.3 times
+    /// linear rate). The default: on the nonlinear manufactured cases it runs 1.4–2.1 times
     /// faster than [`Self::Newton`] (`bench_tangent` in the performance guide).
     #[default]
     Frozen,
