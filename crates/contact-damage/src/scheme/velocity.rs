@@ -285,4 +285,41 @@ mod tests {
         let mesh = cube_with_contact([8; 3]);
         assert_schur_paths_agree(&operator(mesh));
     }
+
+    #[test]
+    fn frictionless_operator_refuses_a_positive_friction_bound_naming_the_node() {
+        let mut operator = operator(square_with_contact([4, 4]));
+        operator.without_friction().unwrap();
+        assert!(operator.tangential.is_empty());
+        let contact = operator.contact().clone();
+        let n = operator.size();
+        let mut bound = vec![0.0; contact.len()];
+        bound[1] = 0.5;
+        let data = VelocityData {
+            load: &vec![0.0; n],
+            normal_pressure: &vec![0.0; contact.len()],
+            friction_bound: &bound,
+            implicit_contact: None,
+            prescribed: None,
+        };
+        let message = operator
+            .solve(&data, &vec![0.0; n], &VelocitySettings::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            message.contains("built without friction")
+                && message.contains(&format!("contact node {}", contact.nodes[1])),
+            "{message}"
+        );
+        // zero bounds solve
+        let zero = vec![0.0; contact.len()];
+        let data = VelocityData {
+            friction_bound: &zero,
+            ..data
+        };
+        let solution = operator
+            .solve(&data, &vec![0.0; n], &VelocitySettings::default())
+            .unwrap();
+        assert!(solution.stats.kkt_residual <= 1e-10);
+    }
 }
