@@ -199,6 +199,14 @@ mod tests {
             "condensed onto the nodes with friction exactly when they are at most half"
         );
         assert!(without_friction < 0.5 || operator.reduction.is_some());
+        if let Some(reduction) = &operator.reduction {
+            // made for these nodes only
+            assert!(reduction.matches(&weights));
+            let mut other = weights.clone();
+            let free = other.iter().position(|&w| w == 0.0).unwrap();
+            other[free] = 1.0;
+            assert!(!reduction.matches(&other));
+        }
         // the two-solve path condenses onto all of Γ3 with S
         operator.ensure_schur().unwrap();
         let base: Vec<f64> = (0..n).map(|_| random.range(-0.1, 0.1)).collect();

@@ -119,11 +119,9 @@ impl<const D: usize> VelocityOperator<D> {
         let g = D - 1;
         // the friction forces in the trailing block, L_tt⁻¹ (W λ)_c, and the tangential
         // velocities of the condensed solution (index into `tangential`, value)
-        let (forces, tangential_solution) = match self
-            .reduction
-            .as_ref()
-            .filter(|reduction| reduction.generation == self.factor_generation)
-        {
+        let (forces, tangential_solution) = match self.reduction.as_ref().filter(|reduction| {
+            reduction.generation == self.factor_generation && reduction.matches(weights)
+        }) {
             Some(reduction) => {
                 // onto the nodes with friction: r̃ = S̃ (Yᵀ z_t + v_P)
                 let mut projected =

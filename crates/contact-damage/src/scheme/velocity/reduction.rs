@@ -38,6 +38,14 @@ pub(crate) struct ReducedCondensation {
     pub(super) schur: Mat<f64>,
 }
 
+impl ReducedCondensation {
+    /// Whether the nodes with friction of `weights` are exactly those it was made for.
+    pub(super) fn matches(&self, weights: &[f64]) -> bool {
+        weights.iter().filter(|&&w| w > 0.0).count() == self.groups.len()
+            && self.groups.iter().all(|&k| weights[k] > 0.0)
+    }
+}
+
 impl<const D: usize> VelocityOperator<D> {
     /// Prepares the condensation of a step whose friction weights are `weights`: with a
     /// trailing factor and at most half of the contact nodes with friction, the reduced
