@@ -299,6 +299,11 @@ mod tests {
         let mut operator = operator(square_with_contact([4, 4]));
         operator.without_friction().unwrap();
         assert!(operator.tangential.is_empty());
+        let refusal = operator
+            .arrange_contact(true, false)
+            .unwrap_err()
+            .to_string();
+        assert!(refusal.contains("cannot be restored"), "{refusal}");
         let contact = operator.contact().clone();
         let n = operator.size();
         let mut bound = vec![0.0; contact.len()];

@@ -185,14 +185,14 @@ impl<const D: usize> VelocityOperator<D> {
     /// [`Self::without_friction`] (`friction = false`) and [`Self::eliminate_normals_last`]
     /// (`normals_last = true`) in one symbolic analysis, done only if something changes.
     pub fn arrange_contact(&mut self, friction: bool, normals_last: bool) -> Result<()> {
-        let drop_friction = !friction && !self.tangential.is_empty();
-        if !drop_friction && normals_last == self.normals_last {
-            return Ok(());
-        }
         if friction && self.tangential.is_empty() && !self.contact.is_empty() {
             return Err(Error::InvalidInput(
                 "velocity operator: friction cannot be restored once dropped".into(),
             ));
+        }
+        let drop_friction = !friction && !self.tangential.is_empty();
+        if !drop_friction && normals_last == self.normals_last {
+            return Ok(());
         }
         if drop_friction {
             self.tangential.clear();

@@ -63,7 +63,7 @@ impl<const D: usize> VelocityOperator<D> {
             return self.ensure_schur();
         }
         if let Some(reduction) = &self.reduction {
-            if reduction.generation == self.factor_generation && reduction.groups == groups {
+            if reduction.generation == self.factor_generation && reduction.matches(weights) {
                 return Ok(());
             }
         }
