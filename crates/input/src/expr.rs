@@ -1029,10 +1029,12 @@ mod tests {
 
     /// At most this fraction of the points where the field is defined may be skipped by the
     /// test below (the dual reference is no 1e-13 reference there, or the point is
-    /// ill-conditioned). Observed: 0.055 to 0.190 (mean 0.119, standard deviation 0.021) in
-    /// 2500 runs of 256 cases, about 620 such points each; 0.25 is six standard deviations above
-    /// the mean, and far below the fraction at which the comparison would test little.
-    const MAX_SKIPPED_FRACTION: f64 = 0.25;
+    /// ill-conditioned). Observed: 0.095 to 0.284 (mean 0.183, standard deviation 0.025) in
+    /// 5000 runs of 256 cases, with 429 to 619 points compared in each. Nearly all skipped
+    /// points (96 %) have an intermediate value above 100, mostly from `pospow` of a large base
+    /// or exponent. 0.40 is 8.7 standard deviations above the mean, and a run that skips it
+    /// still compares more than half of its points.
+    const MAX_SKIPPED_FRACTION: f64 = 0.40;
 
     #[test]
     fn symbolic_derivatives_in_batches_agree_with_nested_duals_on_random_expressions() {
