@@ -11,7 +11,10 @@
 //! methods of [`crate::solvers::box_qp`]: by default the truncated nonsmooth Newton multigrid on an
 //! algebraic hierarchy of M/k + κK, built once per run (no factorization); optionally the
 //! active set method, which factorizes M/k + κK once (in the first step) and solves the reduced
-//! systems of every step by conjugate gradients preconditioned with that factor. For l = 2,
+//! systems of every step by conjugate gradients preconditioned with that factor. In 2D either
+//! is preceded, when the nodes of β_{n−1} on each bound are those of β_{n−2}, by one linear
+//! solve on that bound set ([`BoxQpSolver::solve_predicted`]), which is the solution when its
+//! KKT residual says so ([`MAX_PREDICTION_FILL`]). For l = 2,
 //! 𝒦^h is the set of P2 fields whose nodal values lie in [0, 1] (a field may leave [0, 1]
 //! slightly between nodes).
 
@@ -20,7 +23,7 @@ use crate::error::{Error, Result};
 use crate::fem::quadrature::QuadratureRule;
 use crate::fem::space::{LagrangeSpace, Tabulation};
 use crate::scheme::assembly::damage_element_matrix;
-use crate::solvers::box_qp::{BoxQpSettings, BoxQpSolver, BoxQpStats};
+use crate::solvers::box_qp::{BoundStatus, BoxQpSettings, BoxQpSolver, BoxQpStats};
 use faer::sparse::{Pair, SparseColMat};
 use rayon::prelude::*;
 use std::sync::Arc;
@@ -64,7 +67,21 @@ pub struct DamageOperator<const D: usize> {
     mass: SparseColMat<usize, f64>,
     time_step: f64,
     solver: BoxQpSolver,
+    /// Whether a step whose bound set repeats is first solved on it
+    /// ([`MAX_PREDICTION_FILL`]).
+    predicts_bound_sets: bool,
 }
+
+/// The largest fill of the bound-set factor ([`BoxQpSolver::bound_set_fill`]) at which the
+/// damage step tries the bound set of the previous steps. The prediction pays when one solve
+/// with the factor is much cheaper than the multigrid iterations it replaces, and a
+/// factorization (about ten solves, at each new bound set) not much dearer than one such
+/// step. Measured by `cargo run --release -p contact-damage --example damage_factor_cost`:
+/// the fill is 4.4–7.1 in 2D (P1 at 64²–256², P2 at 64²), where a solve costs a ninth to a
+/// tenth of a multigrid step of `zones2d` (k = h) and a factorization about one step, and
+/// 9.7–25.8 in 3D (P1 at 12³–24³, P2 at 12³), where at 24³ a solve costs half a multigrid step
+/// of `zones3d` and a factorization seven steps.
+pub const MAX_PREDICTION_FILL: f64 = 8.0;
 
 /// Result of a damage step.
 #[derive(Debug, Clone)]
@@ -95,13 +112,21 @@ impl<const D: usize> DamageOperator<D> {
         }
         let mass = assemble_damage_matrix(&space, 1.0, 0.0)?;
         let operator = assemble_damage_matrix(&space, 1.0 / time_step, diffusion)?;
-        let solver = BoxQpSolver::new(operator, settings)?;
+        let mut solver = BoxQpSolver::new(operator, settings)?;
+        let predicts_bound_sets = solver.bound_set_fill()? <= MAX_PREDICTION_FILL;
         Ok(Self {
             space,
             mass,
             time_step,
             solver,
+            predicts_bound_sets,
         })
+    }
+
+    /// Whether a step whose bound set repeats is first solved on it: when the fill of the
+    /// bound-set factor is at most [`MAX_PREDICTION_FILL`] (in 2D).
+    pub fn predicts_bound_sets(&self) -> bool {
+        self.predicts_bound_sets
     }
 
     /// The box-QP solver (its matrix M/k + κK and its factor).
@@ -167,7 +192,48 @@ impl<const D: usize> DamageOperator<D> {
         };
         let lower = vec![0.0; n];
         let upper = vec![1.0; n];
-        let stats = self.solver.solve(&rhs, &lower, &upper, &mut damage)?;
+        let predicted = self
+            .predicts_bound_sets
+            .then(|| repeated_bound_set(previous, before_previous))
+            .flatten();
+        let stats = match predicted {
+            Some(predicted) => {
+                self.solver
+                    .solve_predicted(&rhs, &lower, &upper, &predicted, &mut damage)?
+            }
+            None => self.solver.solve(&rhs, &lower, &upper, &mut damage)?,
+        };
         Ok(DamageSolution { damage, stats })
     }
+}
+
+/// Where the nodal damage `value` lies in 𝒦^h: on 0, on 1, or between.
+fn bound_status(value: f64) -> BoundStatus {
+    if value <= 0.0 {
+        BoundStatus::AtLower
+    } else if value >= 1.0 {
+        BoundStatus::AtUpper
+    } else {
+        BoundStatus::Free
+    }
+}
+
+/// The nodes of β_{n−1} on 0 and on 1, when they are those of β_{n−2} (`None` otherwise, and
+/// when β_{n−2} is not known): the bound set predicted for β_n. Most steps of a damage
+/// evolution leave it as it was (a plateau where β = 1, a region where β = 0), and the step is
+/// then one linear solve on it ([`BoxQpSolver::solve_predicted`]); where it moves, the step is
+/// the box QP solve without prediction. The rule reads the step's data only, so a step's
+/// result does not depend on the steps solved before by the same operator (`--resume`).
+fn repeated_bound_set(previous: &[f64], before_previous: &[f64]) -> Option<Vec<BoundStatus>> {
+    if before_previous.len() != previous.len() {
+        return None;
+    }
+    previous
+        .iter()
+        .zip(before_previous)
+        .map(|(&value, &before)| {
+            let status = bound_status(value);
+            (status == bound_status(before)).then_some(status)
+        })
+        .collect()
 }

@@ -80,6 +80,17 @@
 //! at every N, 5.0, 5.1, 5.2 and 6.0 on average).
 //! Measured per step against the active set method in `reports/benchmark_step.md`.
 //!
+//! # Predicted bound sets
+//! [`BoxQpSolver::solve_predicted`] is given a bound set `(L, U)`, e.g. the one of the previous
+//! time step. With `x_L = lower_L`, `x_U = upper_U`, the free values solve
+//! `A_FF x_F = b_F − A_FL lower_L − A_FU upper_U`, with a Cholesky factor of `A` whose fixed
+//! rows and columns are replaced by the identity's (the pattern of `A`, so one symbolic
+//! analysis serves every set; the numeric factor is recomputed when the set changes). The
+//! candidate, projected onto the box, is the solution when its KKT residual is within the
+//! tolerance, which holds exactly when the set is the solution's (up to degenerate indices).
+//! Otherwise the solve proceeds by the chosen method from the given start, as
+//! [`BoxQpSolver::solve`]. The result is a function of the data, the start and the set alone.
+//!
 //! # Alternative algorithm: primal–dual active set
 //! [`BoxQpMethod::ActiveSet`]:
 //! 1. **Primal–dual active set method** (PDAS; Hintermüller, Ito & Kunisch 2002), which is the
@@ -186,6 +197,7 @@
 //!   complementarity problems with a P-matrix*, Math. Program. 134 (2012) 349–364.
 
 mod active_set;
+mod bound_set;
 mod kkt;
 mod matrix_checks;
 mod monotone_multigrid;
@@ -199,6 +211,7 @@ pub use crate::algebra::linalg::FactorKind;
 pub use kkt::box_qp_kkt_residual;
 pub use settings::{BoxQpMethod, BoxQpSettings, BoxQpStats};
 pub use solver::BoxQpSolver;
+pub use workspace::BoundStatus;
 
 #[cfg(test)]
 mod tests;

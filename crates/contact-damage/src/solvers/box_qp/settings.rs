@@ -51,9 +51,11 @@ pub struct BoxQpStats {
     /// [`BoxQpMethod::ActiveSet`] active set steps plus projected Newton steps. 0 if the start
     /// already satisfied the tolerance.
     pub iterations: usize,
-    /// Numeric Cholesky factorizations of `A` computed in this call: 1 in the first call of
-    /// a solver with [`BoxQpMethod::ActiveSet`] (the factor of `A`), 0 afterwards and always 0
-    /// with [`BoxQpMethod::MonotoneMultigrid`].
+    /// Numeric Cholesky factorizations computed in this call: 1 in the first call of a solver
+    /// with [`BoxQpMethod::ActiveSet`] (the factor of `A`), 0 afterwards and in the iterations
+    /// of [`BoxQpMethod::MonotoneMultigrid`]; plus 1 when
+    /// [`BoxQpSolver::solve_predicted`](super::BoxQpSolver::solve_predicted) factorized for a
+    /// new bound set.
     pub factorizations: usize,
     /// Preconditioned conjugate gradient iterations of all reduced solves (linear
     /// corrections) in this call; each costs one product with `A` and one preconditioner
@@ -77,4 +79,8 @@ pub struct BoxQpStats {
     /// Whether the projected Newton safeguard was needed (PDAS cycled or exhausted its budget;
     /// [`BoxQpMethod::ActiveSet`] only).
     pub used_fallback: bool,
+    /// Whether the solution is the solve on the predicted bound set of
+    /// [`BoxQpSolver::solve_predicted`](super::BoxQpSolver::solve_predicted) (counted as one
+    /// iteration; its factorization, when the set was new, among the `factorizations`).
+    pub bound_set_solve: bool,
 }

@@ -8,6 +8,7 @@ use faer::sparse::SparseColMat;
 use crate::algebra::linalg::{max_abs, CholeskySolver};
 use crate::algebra::multigrid::{inverse, Csr, Hierarchy};
 use crate::error::{Error, History, Result};
+use crate::solvers::box_qp::bound_set::BoundSetFactor;
 use crate::solvers::box_qp::kkt::{
     box_qp_kkt_residual, gradient, project, scaled_kkt_residual, Problem,
 };
@@ -37,6 +38,9 @@ pub struct BoxQpSolver {
     pub(super) coarse: Option<CoarseObstacle<BoxQpSolver>>,
     /// Work vectors kept between calls (allocated by the first).
     pub(super) workspace: Option<Workspace>,
+    /// The factor of the last predicted bound set ([`BoxQpSolver::solve_predicted`], created
+    /// by its first call).
+    pub(super) bound_set_factor: Option<BoundSetFactor>,
 }
 
 impl std::fmt::Debug for BoxQpSolver {
@@ -120,6 +124,7 @@ impl BoxQpSolver {
             multigrid,
             coarse,
             workspace: None,
+            bound_set_factor: None,
         })
     }
 
@@ -241,7 +246,13 @@ impl BoxQpSolver {
     }
 
     /// Checks lengths, finiteness and the ordering of the bounds.
-    fn check_problem(&self, rhs: &[f64], lower: &[f64], upper: &[f64], x: &[f64]) -> Result<()> {
+    pub(super) fn check_problem(
+        &self,
+        rhs: &[f64],
+        lower: &[f64],
+        upper: &[f64],
+        x: &[f64],
+    ) -> Result<()> {
         let dimension = self.diagonal.len();
         for (name, len) in [
             ("rhs", rhs.len()),
@@ -288,7 +299,7 @@ impl BoxQpSolver {
     }
 
     /// Fills the final statistics for the feasible point `x`.
-    fn finish(&self, x: &[f64], problem: &Problem<'_>, stats: &mut BoxQpStats) {
+    pub(super) fn finish(&self, x: &[f64], problem: &Problem<'_>, stats: &mut BoxQpStats) {
         stats.kkt_residual =
             box_qp_kkt_residual(&self.matrix, problem.rhs, problem.lower, problem.upper, x);
         stats.lower_active = x

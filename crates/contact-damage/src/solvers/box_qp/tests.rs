@@ -1206,3 +1206,204 @@ fn reduced_cg_solves_the_free_block_within_its_cap() {
         stats.inner_iterations
     );
 }
+
+/// The bound set of a solution: where it lies on each bound.
+fn bound_set_of(x: &[f64], lower: &[f64], upper: &[f64]) -> Vec<BoundStatus> {
+    x.iter()
+        .zip(lower.iter().zip(upper))
+        .map(|(&x, (&lower, &upper))| {
+            if x == lower {
+                BoundStatus::AtLower
+            } else if x == upper {
+                BoundStatus::AtUpper
+            } else {
+                BoundStatus::Free
+            }
+        })
+        .collect()
+}
+
+/// A 2D damage step with both bounds active ([`damage_step_2d_activates_both_bounds_and_satisfies_kkt`]'s).
+fn two_bound_damage_step(m: usize) -> (DenseMatrix, Vec<f64>, Vec<f64>) {
+    let (mass, stiffness, coords) = fe_2d(m);
+    let (time_step, kappa) = (0.01, 1e-3);
+    let dense = damage_matrix(&mass, &stiffness, time_step, kappa);
+    let previous = vec![0.5; m * m];
+    let source: Vec<f64> = coords
+        .iter()
+        .map(|p| 100.0 * (p[0] < 0.34) as u8 as f64 - 100.0 * (p[0] > 0.66) as u8 as f64)
+        .collect();
+    let b = damage_rhs(&mass, &previous, &source, time_step);
+    (dense, b, previous)
+}
+
+#[test]
+fn the_solution_bound_set_gives_the_solution_in_one_solve() {
+    let (dense, b, start) = two_bound_damage_step(9);
+    let n = b.len();
+    let (lower, upper) = (vec![0.0; n], vec![1.0; n]);
+    let matrix = sparse_from_dense(&dense);
+    let mut solver = BoxQpSolver::new(matrix, BoxQpSettings::default()).unwrap();
+    let mut solution = start.clone();
+    let stats = solver.solve(&b, &lower, &upper, &mut solution).unwrap();
+    assert!(
+        stats.lower_active > 0 && stats.upper_active > 0,
+        "{stats:?}"
+    );
+    let set = bound_set_of(&solution, &lower, &upper);
+    for call in 0..2 {
+        let mut x = start.clone();
+        let stats = solver
+            .solve_predicted(&b, &lower, &upper, &set, &mut x)
+            .unwrap();
+        assert!(stats.bound_set_solve, "{stats:?}");
+        assert_eq!(stats.iterations, 1);
+        // one factorization for the new set, none when it repeats
+        assert_eq!(stats.factorizations, usize::from(call == 0));
+        assert_within_bounds(&x, &lower, &upper);
+        assert!(dense_kkt_residual(&dense, &b, &lower, &upper, &x) <= 1e-14);
+        assert_eq!(bound_set_of(&x, &lower, &upper), set);
+        for i in 0..n {
+            assert!(
+                (x[i] - solution[i]).abs() <= 1e-11,
+                "x[{i}]: {} vs {}",
+                x[i],
+                solution[i]
+            );
+        }
+    }
+}
+
+#[test]
+fn a_wrong_bound_set_leaves_the_solve_as_without_prediction() {
+    let (dense, b, start) = two_bound_damage_step(9);
+    let n = b.len();
+    let (lower, upper) = (vec![0.0; n], vec![1.0; n]);
+    let matrix = sparse_from_dense(&dense);
+    let mut plain = start.clone();
+    let plain_stats = BoxQpSolver::new(matrix.clone(), BoxQpSettings::default())
+        .unwrap()
+        .solve(&b, &lower, &upper, &mut plain)
+        .unwrap();
+    // nothing on a bound, everything on the upper bound, every other index on the lower one
+    for set in [
+        vec![BoundStatus::Free; n],
+        vec![BoundStatus::AtUpper; n],
+        (0..n)
+            .map(|i| [BoundStatus::AtLower, BoundStatus::Free][i % 2])
+            .collect(),
+    ] {
+        let mut solver = BoxQpSolver::new(matrix.clone(), BoxQpSettings::default()).unwrap();
+        let mut x = start.clone();
+        let stats = solver
+            .solve_predicted(&b, &lower, &upper, &set, &mut x)
+            .unwrap();
+        assert!(!stats.bound_set_solve);
+        assert_eq!(x, plain);
+        assert_eq!(stats.iterations, plain_stats.iterations);
+        assert_eq!(stats.factorizations, 1, "the factor of the predicted set");
+    }
+}
+
+#[test]
+fn a_predicted_solve_does_not_depend_on_the_factor_kept_from_earlier_calls() {
+    let (dense, b, start) = two_bound_damage_step(9);
+    let n = b.len();
+    let (lower, upper) = (vec![0.0; n], vec![1.0; n]);
+    let matrix = sparse_from_dense(&dense);
+    let mut solution = start.clone();
+    BoxQpSolver::new(matrix.clone(), BoxQpSettings::default())
+        .unwrap()
+        .solve(&b, &lower, &upper, &mut solution)
+        .unwrap();
+    let set = bound_set_of(&solution, &lower, &upper);
+    let mut used = BoxQpSolver::new(matrix.clone(), BoxQpSettings::default()).unwrap();
+    let mut earlier = start.clone();
+    used.solve_predicted(
+        &b,
+        &lower,
+        &upper,
+        &vec![BoundStatus::Free; n],
+        &mut earlier,
+    )
+    .unwrap();
+    let (mut again, mut once) = (start.clone(), start.clone());
+    let again_stats = used
+        .solve_predicted(&b, &lower, &upper, &set, &mut again)
+        .unwrap();
+    let once_stats = BoxQpSolver::new(matrix, BoxQpSettings::default())
+        .unwrap()
+        .solve_predicted(&b, &lower, &upper, &set, &mut once)
+        .unwrap();
+    assert!(again_stats.bound_set_solve && once_stats.bound_set_solve);
+    assert_eq!(again, once);
+}
+
+#[test]
+fn a_predicted_bound_set_of_the_wrong_length_is_refused() {
+    let (dense, b, start) = two_bound_damage_step(5);
+    let n = b.len();
+    let mut solver = BoxQpSolver::new(sparse_from_dense(&dense), BoxQpSettings::default()).unwrap();
+    let mut x = start;
+    let error = solver
+        .solve_predicted(
+            &b,
+            &vec![0.0; n],
+            &vec![1.0; n],
+            &vec![BoundStatus::Free; n - 1],
+            &mut x,
+        )
+        .unwrap_err();
+    assert!(
+        matches!(&error, Error::InvalidInput(message) if message.contains("predicted bound set has 24 entries")),
+        "{error}"
+    );
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    /// On random SPD problems (not M-matrices) with random bounds, a solve with the bound set
+    /// of the solution is certified by the prediction, and a solve with a random bound set is
+    /// still the solution (by the fallback when the set is wrong).
+    #[test]
+    fn predicted_solve_satisfies_kkt_on_random_spd(
+        n in 1usize..60,
+        seed in any::<u64>(),
+        shift in 0.01f64..1.0,
+    ) {
+        let mut rng = TestRng::new(seed);
+        let dense = random_spd(n, &mut rng, shift);
+        let b: Vec<f64> = (0..n).map(|_| rng.range(-5.0, 5.0)).collect();
+        let (lower, upper): (Vec<f64>, Vec<f64>) = (0..n)
+            .map(|_| {
+                let a = rng.range(-1.0, 1.0);
+                match rng.index(4) {
+                    0 => (a, f64::INFINITY),
+                    1 => (f64::NEG_INFINITY, a),
+                    2 => (a, a),
+                    _ => (a, a + rng.range(0.0, 1.0)),
+                }
+            })
+            .unzip();
+        let random_set: Vec<BoundStatus> = (0..n)
+            .map(|_| [BoundStatus::Free, BoundStatus::AtLower, BoundStatus::AtUpper][rng.index(3)])
+            .collect();
+        let start: Vec<f64> = (0..n).map(|_| rng.range(-2.0, 2.0)).collect();
+        let matrix = sparse_from_dense(&dense);
+        let mut solver = BoxQpSolver::new(matrix, BoxQpSettings::default()).unwrap();
+        let mut solution = start.clone();
+        solver.solve(&b, &lower, &upper, &mut solution).unwrap();
+        let solution_set = bound_set_of(&solution, &lower, &upper);
+        for (name, set) in [("solution's set", &solution_set), ("random set", &random_set)] {
+            let mut x = start.clone();
+            let stats = solver.solve_predicted(&b, &lower, &upper, set, &mut x).unwrap();
+            assert_within_bounds(&x, &lower, &upper);
+            let residual = dense_kkt_residual(&dense, &b, &lower, &upper, &x);
+            prop_assert!(residual <= 1e-10, "{name}: dense KKT residual {residual:e}, {stats:?}");
+            prop_assert!(stats.kkt_residual <= 1e-12, "{name}: {stats:?}");
+            if name == "solution's set" {
+                prop_assert!(stats.bound_set_solve, "{name}: {stats:?}");
+            }
+        }
+    }
+}

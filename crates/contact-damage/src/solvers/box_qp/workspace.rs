@@ -4,11 +4,15 @@
 use crate::algebra::pcg::PcgVectors;
 use crate::solvers::box_qp::projected_gauss_seidel::STALE;
 
-/// Position of an index relative to its bounds in the active set classification.
+/// Position of an index relative to its bounds: in the active set classification, and in a
+/// predicted bound set ([`BoxQpSolver::solve_predicted`](super::BoxQpSolver::solve_predicted)).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub(super) enum BoundStatus {
+pub enum BoundStatus {
+    /// Strictly between its bounds (its gradient vanishes at the solution).
     Free,
+    /// On its lower bound.
     AtLower,
+    /// On its upper bound.
     AtUpper,
 }
 
