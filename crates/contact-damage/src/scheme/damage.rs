@@ -114,6 +114,9 @@ impl<const D: usize> DamageOperator<D> {
         let operator = assemble_damage_matrix(&space, 1.0 / time_step, diffusion)?;
         let mut solver = BoxQpSolver::new(operator, settings)?;
         let predicts_bound_sets = solver.bound_set_fill()? <= MAX_PREDICTION_FILL;
+        if !predicts_bound_sets {
+            solver.release_bound_set_factor();
+        }
         Ok(Self {
             space,
             mass,
@@ -236,4 +239,62 @@ fn repeated_bound_set(previous: &[f64], before_previous: &[f64]) -> Option<Vec<B
             (status == bound_status(before)).then_some(status)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fem::mesh::{BoundaryPart, Mesh};
+    use BoundaryPart::{Dirichlet, Neumann};
+
+    fn square(cells: usize) -> Arc<LagrangeSpace<2>> {
+        let sides = [[Dirichlet, Neumann], [Neumann, Neumann]];
+        let mesh = Mesh::box_mesh([0.0; 2], [1.0; 2], [cells; 2], sides).unwrap();
+        Arc::new(LagrangeSpace::new(Arc::new(mesh), 1).unwrap())
+    }
+
+    #[test]
+    fn the_bound_set_is_predicted_only_when_it_repeats() {
+        use BoundStatus::{AtLower, AtUpper, Free};
+        let previous = [0.0, 0.5, 1.0];
+        assert_eq!(
+            repeated_bound_set(&previous, &[0.0, 0.3, 1.0]),
+            Some(vec![AtLower, Free, AtUpper])
+        );
+        assert_eq!(repeated_bound_set(&previous, &[0.0, 1.0, 1.0]), None);
+        assert_eq!(repeated_bound_set(&previous, &[0.2, 0.5, 1.0]), None);
+        assert_eq!(repeated_bound_set(&previous, &[]), None);
+    }
+
+    #[test]
+    fn bound_sets_are_predicted_in_2d_and_not_where_the_factor_fills_in() {
+        let settings = BoxQpSettings::default;
+        let plane = DamageOperator::new(square(16), 0.01, 1.0 / 16.0, settings()).unwrap();
+        assert!(plane.predicts_bound_sets());
+        let sides = [[Dirichlet, Neumann], [Neumann, Neumann], [Neumann, Neumann]];
+        let mesh = Mesh::box_mesh([0.0; 3], [1.0; 3], [12; 3], sides).unwrap();
+        let space = Arc::new(LagrangeSpace::new(Arc::new(mesh), 1).unwrap());
+        let mut solid = DamageOperator::new(space, 0.01, 1.0 / 12.0, settings()).unwrap();
+        assert!(!solid.predicts_bound_sets());
+        assert!(solid.solver.bound_set_fill().unwrap() > MAX_PREDICTION_FILL);
+    }
+
+    /// A source that keeps β = 1 everywhere: once β_{n−1} and β_{n−2} both are 1, the step is
+    /// the solve on that bound set, certified by its KKT residual.
+    #[test]
+    fn a_step_whose_bound_set_repeats_is_one_solve_on_it() {
+        let space = square(8);
+        let mut operator =
+            DamageOperator::new(space.clone(), 0.01, 0.1, BoxQpSettings::default()).unwrap();
+        let n = space.num_nodes();
+        let source = vec![1.0; n];
+        let ones = vec![1.0; n];
+        let first = operator.solve(&source, &ones, &[]).unwrap();
+        assert!(!first.stats.bound_set_solve);
+        let repeated = operator.solve(&source, &ones, &ones).unwrap();
+        assert!(repeated.stats.bound_set_solve, "{:?}", repeated.stats);
+        assert_eq!(repeated.stats.iterations, 1);
+        assert_eq!(repeated.damage, ones);
+        assert!(repeated.stats.kkt_residual <= 1e-12);
+    }
 }

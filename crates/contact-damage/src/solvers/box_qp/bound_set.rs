@@ -118,6 +118,12 @@ impl BoxQpSolver {
         Ok(factor.factor.factor_len() as f64 / self.matrix.val().len() as f64)
     }
 
+    /// Drops the factor of the predicted bound sets and its analysis (a caller that will not
+    /// predict frees their memory; the next predicted solve analyses again).
+    pub fn release_bound_set_factor(&mut self) {
+        self.bound_set_factor = None;
+    }
+
     /// The factor of the predicted bound sets, analysed on first use.
     fn bound_set_factor(&mut self) -> Result<&mut BoundSetFactor> {
         if self.bound_set_factor.is_none() {
@@ -157,15 +163,8 @@ impl BoxQpSolver {
         }
         let mut factorizations = 0;
         if let Some(set) = normalized_set(predicted, lower, upper) {
-            let scale = crate::algebra::linalg::max_abs(rhs).max(1.0);
-            let problem = Problem {
-                rhs,
-                lower,
-                upper,
-                scale,
-                tie: 0.1 * self.settings.tolerance * scale,
-            };
             let tolerance = self.settings.tolerance;
+            let problem = Problem::new(rhs, lower, upper, tolerance);
             self.bound_set_factor()?;
             let solver = self.bound_set_factor.as_mut().expect("analysed above");
             if solver.prepare(&self.matrix, &set)? {

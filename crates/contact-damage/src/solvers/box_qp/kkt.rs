@@ -21,6 +21,21 @@ pub(super) struct Problem<'a> {
     pub(super) tie: f64,
 }
 
+impl<'a> Problem<'a> {
+    /// The problem of a solve to the scaled KKT tolerance `tolerance`: its scale
+    /// `max(1, ‖b‖_∞)` and tie `0.1 · tolerance · scale`.
+    pub(super) fn new(rhs: &'a [f64], lower: &'a [f64], upper: &'a [f64], tolerance: f64) -> Self {
+        let scale = max_abs(rhs).max(1.0);
+        Self {
+            rhs,
+            lower,
+            upper,
+            scale,
+            tie: 0.1 * tolerance * scale,
+        }
+    }
+}
+
 /// KKT residual of x for the problem (A, b, lower, upper), as defined in the
 /// [module documentation](super).
 ///

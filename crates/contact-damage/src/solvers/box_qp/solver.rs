@@ -5,7 +5,7 @@
 
 use faer::sparse::SparseColMat;
 
-use crate::algebra::linalg::{max_abs, CholeskySolver};
+use crate::algebra::linalg::CholeskySolver;
 use crate::algebra::multigrid::{inverse, Csr, Hierarchy};
 use crate::error::{Error, History, Result};
 use crate::solvers::box_qp::bound_set::BoundSetFactor;
@@ -180,14 +180,7 @@ impl BoxQpSolver {
         x: &mut [f64],
     ) -> Result<BoxQpStats> {
         self.check_problem(rhs, lower, upper, x)?;
-        let scale = max_abs(rhs).max(1.0);
-        let problem = Problem {
-            rhs,
-            lower,
-            upper,
-            scale,
-            tie: 0.1 * self.settings.tolerance * scale,
-        };
+        let problem = Problem::new(rhs, lower, upper, self.settings.tolerance);
         let mut stats = BoxQpStats::default();
         let mut history = Vec::new();
         // The work vectors of the previous call, reset (so that a solve never depends on the

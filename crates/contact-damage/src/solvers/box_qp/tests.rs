@@ -109,6 +109,21 @@ fn random_spd(n: usize, rng: &mut TestRng, shift: f64) -> Vec<Vec<f64>> {
     a
 }
 
+/// Random bounds per index: one-sided (either side), equal, or an interval of width up to 1.
+fn random_bounds(n: usize, rng: &mut TestRng) -> (Vec<f64>, Vec<f64>) {
+    (0..n)
+        .map(|_| {
+            let a = rng.range(-1.0, 1.0);
+            match rng.index(5) {
+                0 => (a, f64::INFINITY),
+                1 => (f64::NEG_INFINITY, a),
+                2 => (a, a),
+                _ => (a, a + rng.range(0.0, 1.0)),
+            }
+        })
+        .unzip()
+}
+
 /// Consistent P1 mass and stiffness matrices of a uniform 1D grid on [0, 1].
 fn fe_1d(nodes: usize) -> (DenseMatrix, DenseMatrix) {
     let h = 1.0 / (nodes - 1) as f64;
@@ -217,17 +232,7 @@ proptest! {
             // a tight box: both bounds active for most data
             1 => (vec![-0.2; n], vec![0.2; n]),
             // random bounds: one-sided, two-sided, equal, infinite
-            2 => (0..n)
-                .map(|_| {
-                    let a = rng.range(-1.0, 1.0);
-                    match rng.index(5) {
-                        0 => (a, f64::INFINITY),
-                        1 => (f64::NEG_INFINITY, a),
-                        2 => (a, a),
-                        _ => (a, a + rng.range(0.0, 1.0)),
-                    }
-                })
-                .unzip(),
+            2 => random_bounds(n, &mut rng),
             // wide finite box that no solution reaches
             _ => (vec![-1e6; n], vec![1e6; n]),
         };
@@ -1374,17 +1379,7 @@ proptest! {
         let mut rng = TestRng::new(seed);
         let dense = random_spd(n, &mut rng, shift);
         let b: Vec<f64> = (0..n).map(|_| rng.range(-5.0, 5.0)).collect();
-        let (lower, upper): (Vec<f64>, Vec<f64>) = (0..n)
-            .map(|_| {
-                let a = rng.range(-1.0, 1.0);
-                match rng.index(4) {
-                    0 => (a, f64::INFINITY),
-                    1 => (f64::NEG_INFINITY, a),
-                    2 => (a, a),
-                    _ => (a, a + rng.range(0.0, 1.0)),
-                }
-            })
-            .unzip();
+        let (lower, upper) = random_bounds(n, &mut rng);
         let random_set: Vec<BoundStatus> = (0..n)
             .map(|_| [BoundStatus::Free, BoundStatus::AtLower, BoundStatus::AtUpper][rng.index(3)])
             .collect();
