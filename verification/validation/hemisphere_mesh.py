@@ -25,6 +25,7 @@ Gmsh's 3D mesher is deterministic for a given version and one thread.
 import os
 
 import gmsh
+from gmsh_grading import grade_towards, write_binary
 
 RADIUS = 1.5
 H_CONTACT = 0.022
@@ -61,26 +62,12 @@ def mesh(quarter: bool) -> str:
     gmsh.model.addPhysicalGroup(3, [tag for _, tag in body], name="body")
     origin = occ.addPoint(0.0, 0.0, 0.0)
     occ.synchronize()
-    field = gmsh.model.mesh.field
-    distance = field.add("Distance")
-    field.setNumbers(distance, "PointsList", [origin])
-    threshold = field.add("Threshold")
-    field.setNumber(threshold, "InField", distance)
-    field.setNumber(threshold, "SizeMin", H_CONTACT)
-    field.setNumber(threshold, "SizeMax", H_FAR)
-    field.setNumber(threshold, "DistMin", 0.16)
-    field.setNumber(threshold, "DistMax", 1.0)
-    field.setAsBackgroundMesh(threshold)
-    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    grade_towards(origin, H_CONTACT, H_FAR, 0.16, 1.0)
     gmsh.model.mesh.generate(3)
     gmsh.model.mesh.setOrder(2)
-    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-    gmsh.option.setNumber("Mesh.Binary", 1)
     stem = "hemisphere_quarter" if quarter else "hemisphere"
     path = os.path.join(HERE, f"{stem}_h{H_CONTACT}.msh")
-    gmsh.write(path)
+    write_binary(path)
     nodes = len(gmsh.model.mesh.getNodes()[0])
     gmsh.finalize()
     return f"{path}: {nodes} nodes"

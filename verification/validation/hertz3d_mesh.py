@@ -31,6 +31,7 @@ Gmsh's 3D mesher is deterministic for a given version and one thread.
 import os
 
 import gmsh
+from gmsh_grading import grade_towards, write_binary
 
 SIZES = [0.02, 0.01, 0.007]
 HALF_SIZES = [0.02, 0.01]
@@ -65,25 +66,11 @@ def mesh(h_contact: float, half: bool = False) -> str:
     gmsh.model.addPhysicalGroup(3, [block], name="block")
     origin = occ.addPoint(0.0, 0.0, 0.0)
     occ.synchronize()
-    field = gmsh.model.mesh.field
-    distance = field.add("Distance")
-    field.setNumbers(distance, "PointsList", [origin])
-    threshold = field.add("Threshold")
-    field.setNumber(threshold, "InField", distance)
-    field.setNumber(threshold, "SizeMin", h_contact)
-    field.setNumber(threshold, "SizeMax", 0.2)
-    field.setNumber(threshold, "DistMin", 0.1)
-    field.setNumber(threshold, "DistMax", 0.8)
-    field.setAsBackgroundMesh(threshold)
-    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    grade_towards(origin, h_contact, 0.2, 0.1, 0.8)
     gmsh.model.mesh.generate(3)
-    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-    gmsh.option.setNumber("Mesh.Binary", 1)
     stem = "mindlin3d" if half else "hertz3d"
     path = os.path.join(HERE, f"{stem}_h{h_contact}.msh")
-    gmsh.write(path)
+    write_binary(path)
     nodes = len(gmsh.model.mesh.getNodes()[0])
     tetrahedra = len(gmsh.model.mesh.getElementsByType(4)[0])
     gmsh.finalize()

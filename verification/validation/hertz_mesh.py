@@ -25,6 +25,7 @@ Gmsh's 2D mesher is deterministic for a given version.
 import os
 
 import gmsh
+from gmsh_grading import grade_towards, write_binary
 
 RADIUS = 1.0
 SIZES = [0.01, 0.005, 0.0025]
@@ -50,29 +51,15 @@ def mesh(h_contact: float) -> str:
     gmsh.model.addPhysicalGroup(1, [top], name="top")
     gmsh.model.addPhysicalGroup(1, [arc_left, arc_right], name="arc")
     gmsh.model.addPhysicalGroup(2, [surface], name="disc")
-    field = gmsh.model.mesh.field
-    distance = field.add("Distance")
-    field.setNumbers(distance, "PointsList", [bottom])
-    threshold = field.add("Threshold")
-    field.setNumber(threshold, "InField", distance)
-    field.setNumber(threshold, "SizeMin", h_contact)
-    field.setNumber(threshold, "SizeMax", 0.08)
-    field.setNumber(threshold, "DistMin", 0.12)
-    field.setNumber(threshold, "DistMax", 0.6)
-    field.setAsBackgroundMesh(threshold)
-    gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
-    gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
-    gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 0)
+    grade_towards(bottom, h_contact, 0.08, 0.12, 0.6)
     gmsh.option.setNumber("Mesh.Algorithm", 6)
     gmsh.model.mesh.generate(2)
-    gmsh.option.setNumber("Mesh.MshFileVersion", 4.1)
-    gmsh.option.setNumber("Mesh.Binary", 1)
     path = os.path.join(HERE, f"hertz_h{h_contact}.msh")
-    gmsh.write(path)
+    write_binary(path)
     nodes = len(gmsh.model.mesh.getNodes()[0])
     if h_contact in SECOND_ORDER:
         gmsh.model.mesh.setOrder(2)
-        gmsh.write(os.path.join(HERE, f"hertz_h{h_contact}_order2.msh"))
+        write_binary(os.path.join(HERE, f"hertz_h{h_contact}_order2.msh"))
     gmsh.finalize()
     return f"{path}: {nodes} nodes"
 
