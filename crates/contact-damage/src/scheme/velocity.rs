@@ -114,7 +114,7 @@ mod tests {
             contact,
         )
         .unwrap();
-        operator.solver.factorize(&operator.matrix).unwrap();
+        operator.factorize().unwrap();
         operator
     }
 

@@ -26,11 +26,16 @@ impl<const D: usize> VelocityOperator<D> {
         }
     }
 
-    /// Numeric factorization of the current matrix and the Schur complement on the tangential
-    /// contact unknowns: Z = E_cᵀ H^{-1} E_c (block solves), S = Z^{-1}.
+    /// Numeric factorization of the current matrix (after the symbolic analysis, if the
+    /// arrangement of the contact unknowns changed since the last one) and the Schur
+    /// complement on the tangential contact unknowns: Z = E_cᵀ H^{-1} E_c (block solves),
+    /// S = Z^{-1}.
     /// With a supernodal factor whose last unknowns are the contact ones, S is formed from its
     /// trailing block only when a step needs it ([`Self::prepare_condensation`]).
     pub(super) fn factorize(&mut self) -> Result<()> {
+        if !self.analysed {
+            self.analyse()?;
+        }
         self.solver.factorize(&self.matrix)?;
         self.factor_generation += 1;
         self.trailing = self.trailing_from_factor();
