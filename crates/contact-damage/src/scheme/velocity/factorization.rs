@@ -193,15 +193,18 @@ impl<const D: usize> VelocityOperator<D> {
         if trailing.leading == 0 || trailing.leading != self.contact.len() {
             return Ok(false);
         }
-        let plain = trailing
-            .plain
-            .take()
-            .unwrap_or_else(|| trailing.factor.clone());
+        if trailing.plain.is_none() {
+            trailing.plain = Some(trailing.factor.clone());
+        }
+        let plain = trailing.plain.as_ref().expect("kept above");
         let plain_schur = trailing
             .plain_schur
-            .take()
-            .unwrap_or_else(|| lower_times_transpose(plain.as_ref()));
-        let mut tangent = plain_schur.clone();
+            .get_or_insert_with(|| lower_times_transpose(plain.as_ref()));
+        // The tangent S_c + D is factorized in the buffer of the factor it replaces (the
+        // plain factor's copy is kept in `plain`): a dense block of several thousand unknowns
+        // is not allocated, and its pages not cleared by the system, at every iteration.
+        let tangent = &mut trailing.factor;
+        tangent.copy_from_triangular_lower(plain_schur.as_ref());
         for (p, &k) in trailing.normal_nodes.iter().enumerate() {
             let dof = self.contact.nodes[k] * D;
             tangent[(p, p)] += self.contact.weights[k]
@@ -210,19 +213,17 @@ impl<const D: usize> VelocityOperator<D> {
                     .law
                     .normal_stiffness(implicit.penetration(k, velocity[dof]));
         }
-        let factor = tangent
-            .llt(faer::Side::Lower)
-            .map_err(|e| Error::LinearAlgebra {
-                context: "Newton tangent of the implicit normal compliance (contact block)".into(),
-                message: format!("dense Cholesky failed: {e:?}"),
-            })?
-            .L()
-            .to_owned();
-        trailing.factor = factor;
-        trailing.plain = Some(plain);
-        trailing.plain_schur = Some(plain_schur);
+        let factorized = cholesky_in_place_lower(tangent.as_mut());
         self.schur = None;
         self.factor_generation += 1;
+        if let Err(e) = factorized {
+            // the plain factor again, as if no tangent had been formed
+            trailing.factor.copy_from(plain);
+            return Err(Error::LinearAlgebra {
+                context: "Newton tangent of the implicit normal compliance (contact block)".into(),
+                message: format!("dense Cholesky failed: {e:?}"),
+            });
+        }
         Ok(true)
     }
 
@@ -238,6 +239,32 @@ impl<const D: usize> VelocityOperator<D> {
         }
         self.trailing = Some(trailing);
     }
+}
+
+/// The Cholesky factor L of the symmetric matrix whose lower triangle `matrix` holds, in place:
+/// L in the lower triangle, zeros above it. The operations of faer's `Mat::llt` (the same
+/// blocked factorization and parallelism), without its copy of the matrix.
+fn cholesky_in_place_lower(
+    mut matrix: faer::MatMut<'_, f64>,
+) -> Result<(), faer::linalg::cholesky::llt::factor::LltError> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
+    let n = matrix.nrows();
+    let par = faer::get_global_parallelism();
+    let mut memory = MemBuffer::new(cholesky_in_place_scratch::<f64>(n, par, Default::default()));
+    cholesky_in_place(
+        matrix.as_mut(),
+        Default::default(),
+        par,
+        MemStack::new(&mut memory),
+        Default::default(),
+    )?;
+    for j in 0..n {
+        for i in 0..j {
+            matrix[(i, j)] = 0.0;
+        }
+    }
+    Ok(())
 }
 
 /// L Lᵀ for a lower triangular L, exactly symmetric: the lower triangle by a triangular product
@@ -263,4 +290,39 @@ fn lower_times_transpose(lower: faer::MatRef<'_, f64>) -> Mat<f64> {
         }
     }
     product
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn in_place_cholesky_is_bitwise_that_of_faer_llt_and_zero_above_the_diagonal() {
+        // an SPD matrix of 300 unknowns (several blocks of the blocked factorization)
+        let n = 300;
+        let random = |i: usize, j: usize| (((i * 7919 + j * 104_729) % 1009) as f64) / 1009.0 - 0.5;
+        let factor = Mat::<f64>::from_fn(n, n, |i, j| if i >= j { random(i, j) } else { 0.0 });
+        let mut matrix = lower_times_transpose(factor.as_ref());
+        for i in 0..n {
+            matrix[(i, i)] += 1.0;
+        }
+        let expected = matrix.llt(faer::Side::Lower).unwrap().L().to_owned();
+        // the upper triangle of the buffer holds other values: they must not be read
+        let mut buffer = Mat::<f64>::from_fn(n, n, |i, j| if i < j { f64::NAN } else { 0.0 });
+        buffer.copy_from_triangular_lower(matrix.as_ref());
+        cholesky_in_place_lower(buffer.as_mut()).unwrap();
+        for j in 0..n {
+            for i in 0..n {
+                assert_eq!(
+                    buffer[(i, j)].to_bits(),
+                    expected[(i, j)].to_bits(),
+                    "entry ({i}, {j})"
+                );
+            }
+        }
+        // an indefinite matrix is refused
+        matrix[(0, 0)] = -1.0;
+        buffer.copy_from_triangular_lower(matrix.as_ref());
+        assert!(cholesky_in_place_lower(buffer.as_mut()).is_err());
+    }
 }
