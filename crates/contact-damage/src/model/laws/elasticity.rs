@@ -1,7 +1,9 @@
 //! The damage-dependent elasticity G(ε, β) of (2.1) (paper §2–3, assumption (3.5)): the trait,
 //! the damaged Hooke law and the law with user moduli μ(β), λ(β).
 
-use super::tensor::{check_finite, isotropic_divergence, trace, FieldJets, Tensor};
+use super::tensor::{
+    check_finite, isotropic_divergence, isotropic_divergence_at, trace, FieldJets, Tensor,
+};
 use crate::error::{Error, Result};
 use nalgebra::SVector;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -171,6 +173,52 @@ impl<const D: usize> Elasticity<D> for DamagedHooke {
             elastic + self.undamaged(strain) * damage_gradient
         } else {
             elastic
+        }
+    }
+    /// The batch of [`Elasticity::stress_divergence`] straight from the columns of the jets,
+    /// without building the point's strain and strain-derivative tensors: the operations of
+    /// the point-by-point form in the same order (nalgebra's trace from 0, its matrix–vector
+    /// product column by column, the identity's zeros multiplied in), so bitwise its values
+    /// (`stress_divergences_of_jets_are_bitwise_the_pointwise_divergences`). With the same
+    /// for [`crate::model::laws::LinearViscosity`], the 3D data of a manufactured run take
+    /// about a fifth less time.
+    fn stress_divergence_of_jets(
+        &self,
+        displacement: &FieldJets<'_, D>,
+        damage: &[f64],
+        damage_gradient: &[&[f64]; D],
+        out: &mut [&mut [f64]; D],
+    ) {
+        let twice_shear = 2.0 * self.shear_modulus;
+        let lambda = self.lame_lambda;
+        let count = out[0].len();
+        let gradient = &displacement.gradient;
+        for p in 0..count {
+            // ε and tr ε at p
+            let strain = |i: usize, k: usize| (gradient[i][k][p] + gradient[k][i][p]) * 0.5;
+            let mut strain_trace = 0.0;
+            for k in 0..D {
+                strain_trace += strain(k, k);
+            }
+            let beta = damage[p];
+            let clamped = beta.clamp(0.0, 1.0);
+            let inside = (0.0..=1.0).contains(&beta);
+            for (i, out) in out.iter_mut().enumerate() {
+                let elastic =
+                    isotropic_divergence_at(twice_shear, lambda, &displacement.second, p, i)
+                        * clamped;
+                // (2μ ε + λ tr ε I) ∇β, row i, column by column
+                let term = |k: usize| {
+                    let identity = if i == k { 1.0 } else { 0.0 };
+                    (strain(i, k) * twice_shear + identity * (lambda * strain_trace))
+                        * damage_gradient[k][p]
+                };
+                let mut flux = term(0);
+                for k in 1..D {
+                    flux += term(k);
+                }
+                out[p] = if inside { elastic + flux } else { elastic };
+            }
         }
     }
     fn validate(&self) -> Result<()> {

@@ -65,6 +65,31 @@ impl<const D: usize> FieldJets<'_, D> {
     }
 }
 
+/// Component i of [`isotropic_divergence`] at point p of a batch of jets, from the columns of
+/// the second derivatives (`second[j][a][b][p]` = ∂²w_a/∂x_b∂x_j, see [`FieldJets`]), without
+/// building the point's tensors: the same operations in the same order as on them (sums from
+/// 0), so bitwise its value.
+#[inline(always)]
+pub(super) fn isotropic_divergence_at<const D: usize>(
+    twice_shear: f64,
+    trace_factor: f64,
+    second: &[[[&[f64]; D]; D]; D],
+    p: usize,
+    i: usize,
+) -> f64 {
+    // (∂_j ε)_ab = (∂²w_a/∂x_b∂x_j + ∂²w_b/∂x_a∂x_j) / 2
+    let derivative = |j: usize, a: usize, b: usize| (second[j][a][b][p] + second[j][b][a][p]) * 0.5;
+    let mut column_sum = 0.0;
+    for j in 0..D {
+        column_sum += derivative(j, i, j);
+    }
+    let mut derivative_trace = 0.0;
+    for k in 0..D {
+        derivative_trace += derivative(i, k, k);
+    }
+    twice_shear * column_sum + trace_factor * derivative_trace
+}
+
 /// Σ_j (∂_j ε)_ij and tr(∂_i ε) for i < D: the two contractions that the divergence of an
 /// isotropic linear law 2a ε + b tr(ε) I needs, `(2a Σ_j (∂_j ε)_ij + b tr(∂_i ε))_i`.
 pub(super) fn isotropic_divergence<const D: usize>(

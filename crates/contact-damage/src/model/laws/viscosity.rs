@@ -1,7 +1,9 @@
 //! The viscosity operator 𝒜 of the Kelvin–Voigt law (2.1) (paper §2–3, assumption (3.4)): the
 //! trait and the closed-form laws, linear and rate-saturating.
 
-use super::tensor::{check_finite, deviator, isotropic_divergence, trace, FieldJets, Tensor};
+use super::tensor::{
+    check_finite, deviator, isotropic_divergence, isotropic_divergence_at, trace, FieldJets, Tensor,
+};
 use crate::error::{Error, Result};
 use nalgebra::SVector;
 
@@ -97,6 +99,16 @@ impl<const D: usize> Viscosity<D> for LinearViscosity {
         derivatives: &[Tensor<D>; D],
     ) -> SVector<f64, D> {
         isotropic_divergence(2.0 * self.shear, self.bulk, derivatives)
+    }
+    /// The batch straight from the columns of the jets, without the point's tensors, bitwise
+    /// [`Self::stress_divergence`] at each point.
+    fn stress_divergence_of_jets(&self, velocity: &FieldJets<'_, D>, out: &mut [&mut [f64]; D]) {
+        let twice_shear = 2.0 * self.shear;
+        for p in 0..out[0].len() {
+            for (i, out) in out.iter_mut().enumerate() {
+                out[p] = isotropic_divergence_at(twice_shear, self.bulk, &velocity.second, p, i);
+            }
+        }
     }
     fn validate(&self) -> Result<()> {
         check_finite("viscosity.shear", self.shear)?;
