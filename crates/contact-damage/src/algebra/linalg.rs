@@ -873,11 +873,12 @@ mod tests {
                 .unwrap()
                 .factor_flops()
         };
-        // simplicial: Σ_j c_j², the column counts with the diagonal
-        assert_eq!(flops(&dense, FactorKind::Simplicial), 91.0); // 6² + 5² + … + 1²
-        assert_eq!(flops(&chain, FactorKind::Simplicial), 37.0); // 9 · 2² + 1
-                                                                 // supernodal: the dense matrix is one supernode of 6 columns, nothing below it
-        assert_eq!(flops(&dense, FactorKind::Supernodal), 72.0); // 6³ / 3
+        // simplicial: Σ_j c_j² over the column counts with the diagonal, 6² + 5² + … + 1²
+        // for the dense matrix and 9 · 2² + 1 for the chain
+        assert_eq!(flops(&dense, FactorKind::Simplicial), 91.0);
+        assert_eq!(flops(&chain, FactorKind::Simplicial), 37.0);
+        // supernodal: the dense matrix is one supernode of 6 columns with nothing below, 6³/3
+        assert_eq!(flops(&dense, FactorKind::Supernodal), 72.0);
     }
 
     #[test]
