@@ -85,14 +85,7 @@ pub fn fill_reducing_node_order<const D: usize>(
 /// Approximate minimum degree order of the nodes (faer's AMD on the node graph): position →
 /// node.
 pub fn minimum_degree(graph: &NodeGraph) -> crate::error::Result<Vec<usize>> {
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use faer::sparse::linalg::amd;
-    use faer::sparse::SymbolicSparseColMat;
     let n = graph.offsets.len() - 1;
-    let failure = |message: String| crate::error::Error::LinearAlgebra {
-        context: "minimum degree ordering".into(),
-        message,
-    };
     // the pattern with the diagonal, each column sorted
     let mut col_ptr = Vec::with_capacity(n + 1);
     let mut row_idx = Vec::with_capacity(graph.neighbours.len() + n);
@@ -105,21 +98,7 @@ pub fn minimum_degree(graph: &NodeGraph) -> crate::error::Result<Vec<usize>> {
         row_idx.extend_from_slice(&neighbours[split..]);
         col_ptr.push(row_idx.len());
     }
-    let nnz = row_idx.len();
-    let pattern = SymbolicSparseColMat::<usize>::new_checked(n, n, col_ptr, None, row_idx);
-    let mut forward = vec![0usize; n];
-    let mut inverse = vec![0usize; n];
-    let mut memory = MemBuffer::try_new(amd::order_maybe_unsorted_scratch::<usize>(n, nnz))
-        .map_err(|e| failure(format!("out of memory: {e:?}")))?;
-    amd::order_maybe_unsorted(
-        &mut forward,
-        &mut inverse,
-        pattern.as_ref(),
-        amd::Control::default(),
-        MemStack::new(&mut memory),
-    )
-    .map_err(|e| failure(format!("{e:?}")))?;
-    Ok(forward)
+    approximate_minimum_degree(col_ptr, row_idx, "minimum degree ordering")
 }
 
 /// Approximate minimum degree order of the unknowns that are not `trailing` (D unknowns per
@@ -130,14 +109,7 @@ pub fn minimum_degree_of_leading<const D: usize>(
     graph: &NodeGraph,
     trailing: &[bool],
 ) -> crate::error::Result<Vec<usize>> {
-    use faer::dyn_stack::{MemBuffer, MemStack};
-    use faer::sparse::linalg::amd;
-    use faer::sparse::SymbolicSparseColMat;
     let nodes = graph.offsets.len() - 1;
-    let failure = |message: String| crate::error::Error::LinearAlgebra {
-        context: "minimum degree ordering of the leading unknowns".into(),
-        message,
-    };
     // leading unknowns renumbered 0..m
     let mut index = vec![usize::MAX; nodes * D];
     let mut unknowns = Vec::new();
@@ -167,11 +139,34 @@ pub fn minimum_degree_of_leading<const D: usize>(
         row_idx.extend_from_slice(&column);
         col_ptr.push(row_idx.len());
     }
+    let order = approximate_minimum_degree(
+        col_ptr,
+        row_idx,
+        "minimum degree ordering of the leading unknowns",
+    )?;
+    Ok(order.into_iter().map(|k| unknowns[k]).collect())
+}
+
+/// faer's approximate minimum degree order (position → index) of the symmetric pattern whose
+/// columns `col_ptr`, `row_idx` give, with the diagonal and each column sorted.
+fn approximate_minimum_degree(
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    context: &str,
+) -> crate::error::Result<Vec<usize>> {
+    use faer::dyn_stack::{MemBuffer, MemStack};
+    use faer::sparse::linalg::amd;
+    use faer::sparse::SymbolicSparseColMat;
+    let n = col_ptr.len() - 1;
     let nnz = row_idx.len();
-    let pattern = SymbolicSparseColMat::<usize>::new_checked(m, m, col_ptr, None, row_idx);
-    let mut forward = vec![0usize; m];
-    let mut inverse = vec![0usize; m];
-    let mut memory = MemBuffer::try_new(amd::order_maybe_unsorted_scratch::<usize>(m, nnz))
+    let failure = |message: String| crate::error::Error::LinearAlgebra {
+        context: context.into(),
+        message,
+    };
+    let pattern = SymbolicSparseColMat::<usize>::new_checked(n, n, col_ptr, None, row_idx);
+    let mut forward = vec![0usize; n];
+    let mut inverse = vec![0usize; n];
+    let mut memory = MemBuffer::try_new(amd::order_maybe_unsorted_scratch::<usize>(n, nnz))
         .map_err(|e| failure(format!("out of memory: {e:?}")))?;
     amd::order_maybe_unsorted(
         &mut forward,
@@ -181,7 +176,7 @@ pub fn minimum_degree_of_leading<const D: usize>(
         MemStack::new(&mut memory),
     )
     .map_err(|e| failure(format!("{e:?}")))?;
-    Ok(forward.into_iter().map(|k| unknowns[k]).collect())
+    Ok(forward)
 }
 
 /// Nested-dissection order of the nodes (a permutation: position → node), eliminated first to
