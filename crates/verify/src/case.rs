@@ -15,7 +15,8 @@ use crate::InputError;
 use contact_damage::algebra::linalg::MAGNITUDE_LIMIT;
 use contact_damage::fem::mesh::{BoundaryPart, Mesh};
 use contact_damage::scheme::{
-    Data, JumpPlane, PointScalarField, PrescribedDisplacement, Problem, SchemeSettings,
+    BoundSetPrediction, Data, JumpPlane, PointScalarField, PrescribedDisplacement, Problem,
+    SchemeSettings,
 };
 use contact_input::file::{parse_expr, parse_toml, positive};
 use contact_input::sides::{prescribed_sides, PrescribedSide};
@@ -911,6 +912,7 @@ impl<const D: usize> Case<D> {
             steps,
             settings: SchemeSettings {
                 contact: self.file.scheme.contact_treatment(),
+                damage_bound_sets: BoundSetPrediction::Followed,
                 ..SchemeSettings::default()
             },
         })

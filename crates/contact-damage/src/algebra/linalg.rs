@@ -520,6 +520,61 @@ impl CholeskySolver {
         }))
     }
 
+    /// The supernodal elimination tree of the factor, for
+    /// [`CholeskySolver::forward_solve_sparse`]; None for a simplicial analysis.
+    pub(crate) fn supernode_tree(&self) -> Option<triangular::SupernodeTree> {
+        match self.symbolic.raw() {
+            SymbolicCholeskyRaw::Supernodal(symbolic) => {
+                Some(triangular::SupernodeTree::new(symbolic))
+            }
+            SymbolicCholeskyRaw::Simplicial(_) => None,
+        }
+    }
+
+    /// The forward half z = L⁻¹ P b ([`CholeskySolver::forward_solve`]) of a right-hand side b
+    /// with few nonzeros, `rhs` as (unknown, value) pairs: the sweep visits only the supernodes
+    /// reachable from those unknowns in the elimination tree `tree` (from
+    /// [`CholeskySolver::supernode_tree`]), with the operations of the full sweep on them.
+    /// Returns the positions (elimination order, ascending) and values of z on the columns of
+    /// those supernodes, every other entry of z being zero. `scratch` holds one zero per
+    /// unknown, and again on return. Errors: a simplicial factor, no factor yet, lengths.
+    pub(crate) fn forward_solve_sparse(
+        &self,
+        tree: &mut triangular::SupernodeTree,
+        rhs: &[(usize, f64)],
+        scratch: &mut [f64],
+    ) -> Result<(Vec<usize>, Vec<f64>)> {
+        let Some((symbolic, values)) = self.supernodal()? else {
+            return Err(Error::LinearAlgebra {
+                context: self.context.into(),
+                message: "a sparse forward solve needs a supernodal factor".into(),
+            });
+        };
+        self.check_length(scratch.len())?;
+        let inverse = self.symbolic.perm().map(|perm| perm.arrays().1);
+        let position = |unknown: usize| inverse.map_or(unknown, |inverse| inverse[unknown]);
+        for &(unknown, value) in rhs {
+            if unknown >= self.size {
+                return Err(Error::InvalidInput(format!(
+                    "{}: right-hand side entry at unknown {unknown}, expected < {}",
+                    self.context, self.size
+                )));
+            }
+            scratch[position(unknown)] += value;
+        }
+        let supernodes = tree.reach(rhs.iter().map(|&(unknown, _)| position(unknown)));
+        triangular::forward_on(symbolic, values, scratch, supernodes.iter().copied());
+        let mut rows = Vec::new();
+        let mut entries = Vec::new();
+        for &s in &supernodes {
+            for row in tree.columns(s) {
+                rows.push(row);
+                entries.push(std::mem::take(&mut scratch[row]));
+            }
+        }
+        Ok((rows, entries))
+    }
+
     /// Supernodes of at least 32 columns (solved with dense kernels, the narrower ones column
     /// by column) and all supernodes of a supernodal analysis; None for a simplicial one.
     pub fn wide_supernodes(&self) -> Option<(usize, usize)> {

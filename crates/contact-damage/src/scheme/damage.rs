@@ -14,7 +14,9 @@
 //! systems of every step by conjugate gradients preconditioned with that factor. In 2D either
 //! is preceded, when the nodes of β_{n−1} on each bound are those of β_{n−2}, by one linear
 //! solve on that bound set ([`BoxQpSolver::solve_predicted`]), which is the solution when its
-//! KKT residual says so ([`MAX_PREDICTION_FILL`]). For l = 2,
+//! KKT residual says so ([`MAX_PREDICTION_FILL`]); or, with [`BoundSetPrediction::Followed`],
+//! at every step by active set iterations on bound sets solved with the factor of an earlier
+//! set bordered by the nodes that moved ([`BoxQpSolver::solve_following`]). For l = 2,
 //! 𝒦^h is the set of P2 fields whose nodal values lie in [0, 1] (a field may leave [0, 1]
 //! slightly between nodes).
 
@@ -70,6 +72,27 @@ pub struct DamageOperator<const D: usize> {
     /// Whether a step whose bound set repeats is first solved on it
     /// ([`MAX_PREDICTION_FILL`]).
     predicts_bound_sets: bool,
+    /// How a bound set is predicted where it is.
+    prediction: BoundSetPrediction,
+}
+
+/// How the damage step predicts the bound set of β_n where the factor of a bound set is cheap
+/// ([`MAX_PREDICTION_FILL`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum BoundSetPrediction {
+    /// When the nodes of β_{n−1} on each bound are those of β_{n−2}, one linear solve on that
+    /// set with a factor of it ([`BoxQpSolver::solve_predicted`]), else the box QP solve. Each
+    /// step's values are a function of its data and start alone, so a run resumed from a
+    /// snapshot is bitwise the uninterrupted one.
+    #[default]
+    Repeated,
+    /// At every step the primal–dual active set iteration from the bound set of the start,
+    /// each set solved with the factor of an earlier set bordered by the nodes that changed
+    /// status ([`BoxQpSolver::solve_following`]), else the box QP solve: a few solves with a
+    /// factor per step where the bound set moves by a few nodes, as a damage front does. The
+    /// values depend on the steps solved before at the rounding level (each is certified by
+    /// its KKT residual).
+    Followed,
 }
 
 /// The largest fill of the bound-set factor ([`BoxQpSolver::bound_set_fill`]) at which the
@@ -123,7 +146,13 @@ impl<const D: usize> DamageOperator<D> {
             time_step,
             solver,
             predicts_bound_sets,
+            prediction: BoundSetPrediction::default(),
         })
+    }
+
+    /// Sets how bound sets are predicted (where they are, [`DamageOperator::predicts_bound_sets`]).
+    pub fn set_bound_set_prediction(&mut self, prediction: BoundSetPrediction) {
+        self.prediction = prediction;
     }
 
     /// Whether a step whose bound set repeats is first solved on it: when the fill of the
@@ -195,6 +224,12 @@ impl<const D: usize> DamageOperator<D> {
         };
         let lower = vec![0.0; n];
         let upper = vec![1.0; n];
+        if self.predicts_bound_sets && self.prediction == BoundSetPrediction::Followed {
+            let stats = self
+                .solver
+                .solve_following(&rhs, &lower, &upper, &mut damage)?;
+            return Ok(DamageSolution { damage, stats });
+        }
         let predicted = self
             .predicts_bound_sets
             .then(|| repeated_bound_set(previous, before_previous))
@@ -277,6 +312,55 @@ mod tests {
         let mut solid = DamageOperator::new(space, 0.01, 1.0 / 12.0, settings()).unwrap();
         assert!(!solid.predicts_bound_sets());
         assert!(solid.solver.bound_set_fill().unwrap() > MAX_PREDICTION_FILL);
+    }
+
+    /// A plateau β = 1 receding by a few nodes per step (a source pushing β up left of a front
+    /// that moves right to left, and down beyond it): the followed bound sets solve every
+    /// step after the first with the factor of an earlier set, certified by the KKT residual,
+    /// and give the solution of the repeated-set prediction.
+    #[test]
+    fn followed_bound_sets_solve_a_receding_plateau() {
+        let space = square(16);
+        let n = space.num_nodes();
+        let settings = BoxQpSettings::default;
+        let mut repeated = DamageOperator::new(space.clone(), 0.01, 0.05, settings()).unwrap();
+        let mut followed = DamageOperator::new(space.clone(), 0.01, 0.05, settings()).unwrap();
+        followed.set_bound_set_prediction(BoundSetPrediction::Followed);
+        let (mut before, mut previous) = (Vec::new(), vec![1.0; n]);
+        let mut bordered = 0;
+        for step in 1..=8 {
+            let front = 0.8 - 0.05 * step as f64;
+            let source: Vec<f64> = (0..n)
+                .map(|i| {
+                    let x = space.node(i)[0];
+                    if x < front {
+                        1.0
+                    } else {
+                        -2.0 * (x - front)
+                    }
+                })
+                .collect();
+            let expected = repeated.solve(&source, &previous, &before).unwrap();
+            let solution = followed.solve(&source, &previous, &before).unwrap();
+            assert!(solution.stats.kkt_residual <= 1e-12, "{:?}", solution.stats);
+            if step > 1 {
+                assert!(
+                    solution.stats.bound_set_solve,
+                    "step {step}: {:?}",
+                    solution.stats
+                );
+                bordered += usize::from(solution.stats.factorizations == 0);
+            }
+            for (a, b) in solution.damage.iter().zip(&expected.damage) {
+                assert!((a - b).abs() <= 1e-10, "step {step}: {a} vs {b}");
+            }
+            assert!(expected.stats.upper_active > 0 && expected.stats.upper_active < n);
+            before = std::mem::replace(&mut previous, expected.damage);
+        }
+        assert!(
+            bordered >= 4,
+            "{bordered} steps solved without a new factorization"
+        );
     }
 
     /// A source that keeps β = 1 everywhere: once β_{n−1} and β_{n−2} both are 1, the step is

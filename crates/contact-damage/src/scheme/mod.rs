@@ -18,6 +18,7 @@ use crate::model::dirichlet::DirichletConstraints;
 pub use crate::model::dirichlet::PrescribedDisplacement;
 use crate::model::rigid::check_rigid_motions;
 use crate::scheme::assembly::FacetPoints;
+pub use crate::scheme::damage::BoundSetPrediction;
 use crate::scheme::damage::{DamageOperator, DamageSolution};
 use crate::scheme::loads::{BulkData, LoadQuadrature};
 use crate::scheme::stability::{step_limit, StepLimit};
@@ -42,6 +43,8 @@ pub struct SchemeSettings {
     pub velocity: VelocitySettings,
     /// Damage step (5.2).
     pub damage: BoxQpSettings,
+    /// How the damage step predicts its bound sets.
+    pub damage_bound_sets: BoundSetPrediction,
     /// Where the normal compliance of the velocity step is evaluated.
     pub contact: ContactTreatment,
     /// Whether the damage evolves by (5.2) or stays at β_0.
@@ -250,12 +253,16 @@ impl<const D: usize> Simulation<D> {
         )?;
         let time_step = problem.final_time / problem.steps as f64;
         let damage = match problem.settings.damage_evolution {
-            DamageEvolution::Parabolic => Some(DamageOperator::new(
-                space.clone(),
-                model.damage_diffusion,
-                time_step,
-                problem.settings.damage,
-            )?),
+            DamageEvolution::Parabolic => {
+                let mut operator = DamageOperator::new(
+                    space.clone(),
+                    model.damage_diffusion,
+                    time_step,
+                    problem.settings.damage,
+                )?;
+                operator.set_bound_set_prediction(problem.settings.damage_bound_sets);
+                Some(operator)
+            }
             DamageEvolution::Frozen => None,
         };
         let loads = LoadQuadrature::with_jump_planes(&space, &problem.data.jump_planes)?;

@@ -91,6 +91,24 @@
 //! Otherwise the solve proceeds by the chosen method from the given start, as
 //! [`BoxQpSolver::solve`]. The result is a function of the data, the start and the set alone.
 //!
+//! # Followed bound sets
+//! [`BoxQpSolver::solve_following`] serves a sequence of problems with the same `A` whose bound
+//! sets move by a few indices from one to the next, as the plateau of a damage front does. It
+//! runs the primal–dual active set iteration below (at most four sets) from the bound set of
+//! the start, and solves each set with the factor of a *reference* set kept from earlier calls,
+//! bordered by the indices whose free/fixed status differs from it: the Schur complement
+//! update of the active set QP methods (Gill, Murray, Saunders & Wright 1990). An index freed
+//! since borders the reference matrix with its column of `A`, an index fixed since with a unit
+//! vector and a multiplier; the border's columns of `L⁻¹G` are sparse (the elimination tree
+//! paths from their nonzeros) and computed once per index and reference factor, so a set
+//! costs a backward solve, products with the border's columns and a dense system of the
+//! border (at most 64 indices; a set further away is factorized and becomes the reference).
+//! A candidate is accepted as `solve_predicted`'s is, by its KKT residual; when the iteration
+//! stalls, cycles or moves far from the set it factorized, the solve proceeds by the chosen
+//! method from the start. The values depend on the reference factor, at the level of rounding:
+//! a caller that needs each result to be a function of its data alone (a run resumed from a
+//! snapshot) uses `solve_predicted`.
+//!
 //! # Alternative algorithm: primal–dual active set
 //! [`BoxQpMethod::ActiveSet`]:
 //! 1. **Primal–dual active set method** (PDAS; Hintermüller, Ito & Kunisch 2002), which is the
@@ -198,6 +216,7 @@
 
 mod active_set;
 mod bound_set;
+mod bound_set_border;
 mod kkt;
 mod matrix_checks;
 mod monotone_multigrid;
@@ -208,6 +227,7 @@ mod solver;
 mod workspace;
 
 pub use crate::algebra::linalg::FactorKind;
+pub use bound_set_border::{MAX_BORDER, MAX_FOLLOWED_ITERATIONS};
 pub use kkt::box_qp_kkt_residual;
 pub use settings::{BoxQpMethod, BoxQpSettings, BoxQpStats};
 pub use solver::BoxQpSolver;

@@ -240,7 +240,7 @@ impl BoxQpSolver {
 /// Active set classification of (★) with `c_i = A_ii`; indices with `lower_i = upper_i` are
 /// always at their (lower) bound, and an index exactly on a bound whose gradient has the wrong
 /// sign by at most `problem.tie` stays at that bound (degenerate ties).
-fn classify(
+pub(super) fn classify(
     x: &[f64],
     gradient: &[f64],
     problem: &Problem<'_>,
@@ -261,7 +261,7 @@ fn classify(
     }
 }
 
-fn state_hash(state: &[BoundStatus]) -> u64 {
+pub(super) fn state_hash(state: &[BoundStatus]) -> u64 {
     let mut hasher = DefaultHasher::new();
     state.hash(&mut hasher);
     hasher.finish()

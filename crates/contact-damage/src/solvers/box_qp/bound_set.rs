@@ -8,6 +8,7 @@ use faer::sparse::SparseColMat;
 
 use crate::algebra::linalg::{multiply_into, CholeskySolver, FactorKind};
 use crate::error::{Error, Result};
+use crate::solvers::box_qp::bound_set_border::Border;
 use crate::solvers::box_qp::kkt::{gradient, project, scaled_kkt_residual, Problem};
 use crate::solvers::box_qp::settings::BoxQpStats;
 use crate::solvers::box_qp::solver::BoxQpSolver;
@@ -20,14 +21,17 @@ use crate::solvers::box_qp::workspace::BoundStatus;
 /// result.
 pub(super) struct BoundSetFactor {
     /// The bound set of the factor (indices with `lower_i = upper_i` as [`BoundStatus::AtLower`]).
-    set: Vec<BoundStatus>,
+    pub(super) set: Vec<BoundStatus>,
     /// `A` with the fixed rows and columns of `set` replaced by the identity's.
     matrix: SparseColMat<usize, f64>,
-    factor: CholeskySolver,
+    pub(super) factor: CholeskySolver,
     /// `A x_fixed` (the fixed values extended by zero), then the gradient of the candidate.
-    product: Vec<f64>,
+    pub(super) product: Vec<f64>,
     /// The right-hand side of the reduced system, the fixed values at the fixed indices.
-    reduced_rhs: Vec<f64>,
+    pub(super) reduced_rhs: Vec<f64>,
+    /// The border of the factor for the sets followed from it
+    /// ([`BoxQpSolver::solve_following`]), cleared at each factorization.
+    pub(super) border: Border,
 }
 
 impl BoundSetFactor {
@@ -46,12 +50,13 @@ impl BoundSetFactor {
             )?,
             product: vec![0.0; n],
             reduced_rhs: vec![0.0; n],
+            border: Border::default(),
         })
     }
 
     /// Factorizes for the bound set `set` unless it is the set of the current factor; returns
     /// whether it factorized.
-    fn prepare(
+    pub(super) fn prepare(
         &mut self,
         original: &SparseColMat<usize, f64>,
         set: &[BoundStatus],
@@ -61,6 +66,7 @@ impl BoundSetFactor {
         }
         self.set.clear();
         self.set.extend_from_slice(set);
+        self.border.clear();
         let column_pointers = original.col_ptr();
         let row_indices = original.row_idx();
         let values = original.val();
@@ -85,7 +91,7 @@ impl BoundSetFactor {
 
 /// The bound set `predicted` made consistent with the bounds (an index with `lower_i = upper_i`
 /// is fixed at its lower bound), or `None` when it puts an index on an infinite bound.
-fn normalized_set(
+pub(super) fn normalized_set(
     predicted: &[BoundStatus],
     lower: &[f64],
     upper: &[f64],
@@ -125,7 +131,7 @@ impl BoxQpSolver {
     }
 
     /// The factor of the predicted bound sets, analysed on first use.
-    fn bound_set_factor(&mut self) -> Result<&mut BoundSetFactor> {
+    pub(super) fn bound_set_factor(&mut self) -> Result<&mut BoundSetFactor> {
         if self.bound_set_factor.is_none() {
             self.bound_set_factor = Some(BoundSetFactor::new(&self.matrix)?);
         }

@@ -293,8 +293,20 @@ impl BoxQpSolver {
 
     /// Fills the final statistics for the feasible point `x`.
     pub(super) fn finish(&self, x: &[f64], problem: &Problem<'_>, stats: &mut BoxQpStats) {
-        stats.kkt_residual =
+        let residual =
             box_qp_kkt_residual(&self.matrix, problem.rhs, problem.lower, problem.upper, x);
+        self.finish_with_residual(x, problem, residual, stats);
+    }
+
+    /// [`BoxQpSolver::finish`] for a feasible `x` whose scaled KKT residual is known.
+    pub(super) fn finish_with_residual(
+        &self,
+        x: &[f64],
+        problem: &Problem<'_>,
+        residual: f64,
+        stats: &mut BoxQpStats,
+    ) {
+        stats.kkt_residual = residual;
         stats.lower_active = x
             .iter()
             .zip(problem.lower)

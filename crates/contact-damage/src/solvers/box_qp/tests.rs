@@ -12,11 +12,11 @@ use crate::solvers::box_qp_coarse::{diffusion_dominance, COARSE_TOLERANCE};
 use faer::sparse::{SparseColMat, Triplet};
 use proptest::prelude::*;
 
-type DenseMatrix = Vec<Vec<f64>>;
+pub(super) type DenseMatrix = Vec<Vec<f64>>;
 
-use crate::test_random::SeededRandom as TestRng;
+pub(super) use crate::test_random::SeededRandom as TestRng;
 
-fn sparse_from_dense(dense: &[Vec<f64>]) -> SparseColMat<usize, f64> {
+pub(super) fn sparse_from_dense(dense: &[Vec<f64>]) -> SparseColMat<usize, f64> {
     let n = dense.len();
     let mut triplets = Vec::new();
     for (i, row) in dense.iter().enumerate() {
@@ -60,7 +60,7 @@ fn dense_solve(dense: &[Vec<f64>], rhs: &[f64]) -> Vec<f64> {
 }
 
 /// Natural KKT residual computed densely, independently of the solver module.
-fn dense_kkt_residual(
+pub(super) fn dense_kkt_residual(
     dense: &[Vec<f64>],
     b: &[f64],
     lower: &[f64],
@@ -78,7 +78,7 @@ fn dense_kkt_residual(
     residual / scale
 }
 
-fn assert_within_bounds(x: &[f64], lower: &[f64], upper: &[f64]) {
+pub(super) fn assert_within_bounds(x: &[f64], lower: &[f64], upper: &[f64]) {
     for i in 0..x.len() {
         assert!(
             lower[i] <= x[i] && x[i] <= upper[i],
@@ -92,7 +92,7 @@ fn assert_within_bounds(x: &[f64], lower: &[f64], upper: &[f64]) {
 
 /// A = BᵀB + shift·I with a random sparse B (about three entries per row, both signs), so
 /// that A is SPD with off-diagonal entries of both signs (not an M-matrix).
-fn random_spd(n: usize, rng: &mut TestRng, shift: f64) -> Vec<Vec<f64>> {
+pub(super) fn random_spd(n: usize, rng: &mut TestRng, shift: f64) -> Vec<Vec<f64>> {
     let mut b_matrix = vec![vec![0.0; n]; n];
     for row in b_matrix.iter_mut() {
         for _ in 0..3 {
@@ -110,7 +110,7 @@ fn random_spd(n: usize, rng: &mut TestRng, shift: f64) -> Vec<Vec<f64>> {
 }
 
 /// Random bounds per index: one-sided (either side), equal, or an interval of width up to 1.
-fn random_bounds(n: usize, rng: &mut TestRng) -> (Vec<f64>, Vec<f64>) {
+pub(super) fn random_bounds(n: usize, rng: &mut TestRng) -> (Vec<f64>, Vec<f64>) {
     (0..n)
         .map(|_| {
             let a = rng.range(-1.0, 1.0);
@@ -142,7 +142,7 @@ fn fe_1d(nodes: usize) -> (DenseMatrix, DenseMatrix) {
 
 /// Consistent P1 mass and stiffness matrices on the unit square, m×m vertices, each cell cut
 /// into two triangles.
-fn fe_2d(m: usize) -> (DenseMatrix, DenseMatrix, Vec<[f64; 2]>) {
+pub(super) fn fe_2d(m: usize) -> (DenseMatrix, DenseMatrix, Vec<[f64; 2]>) {
     let h = 1.0 / (m - 1) as f64;
     let n = m * m;
     let vertex = |ix: usize, iy: usize| iy * m + ix;
@@ -183,7 +183,7 @@ fn fe_2d(m: usize) -> (DenseMatrix, DenseMatrix, Vec<[f64; 2]>) {
 }
 
 /// A = M/k + κK.
-fn damage_matrix(
+pub(super) fn damage_matrix(
     mass: &[Vec<f64>],
     stiffness: &[Vec<f64>],
     time_step: f64,
@@ -201,7 +201,12 @@ fn damage_matrix(
 }
 
 /// b = M (β_prev/k + φ).
-fn damage_rhs(mass: &[Vec<f64>], previous: &[f64], source: &[f64], time_step: f64) -> Vec<f64> {
+pub(super) fn damage_rhs(
+    mass: &[Vec<f64>],
+    previous: &[f64],
+    source: &[f64],
+    time_step: f64,
+) -> Vec<f64> {
     let load: Vec<f64> = previous
         .iter()
         .zip(source)
@@ -1213,7 +1218,7 @@ fn reduced_cg_solves_the_free_block_within_its_cap() {
 }
 
 /// The bound set of a solution: where it lies on each bound.
-fn bound_set_of(x: &[f64], lower: &[f64], upper: &[f64]) -> Vec<BoundStatus> {
+pub(super) fn bound_set_of(x: &[f64], lower: &[f64], upper: &[f64]) -> Vec<BoundStatus> {
     x.iter()
         .zip(lower.iter().zip(upper))
         .map(|(&x, (&lower, &upper))| {
