@@ -306,6 +306,14 @@ mod tests {
         SparseColMat::try_new_from_triplets(n, n, &triplets).unwrap()
     }
 
+    /// The supernodal factor of [`matrix`]`(n, dense, stride, seed)`.
+    fn factor(n: usize, dense: usize, stride: usize, seed: u64) -> CholeskySolver {
+        let a = matrix(n, dense, stride, seed);
+        let mut solver = CholeskySolver::analyse_as(&a, FactorKind::Supernodal, "test").unwrap();
+        solver.factorize(&a).unwrap();
+        solver
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(24))]
         /// The column sweeps and dense kernels of `forward`/`backward` solve as faer's own
@@ -319,9 +327,7 @@ mod tests {
             seed in any::<u64>(),
         ) {
             let n = sparse + dense;
-            let a = matrix(n, dense, stride, seed);
-            let mut solver = CholeskySolver::analyse_as(&a, FactorKind::Supernodal, "test").unwrap();
-            solver.factorize(&a).unwrap();
+            let solver = factor(n, dense, stride, seed);
             let (wide, all) = solver.wide_supernodes().unwrap();
             prop_assert!(wide >= 1 && wide < all, "wide {wide} of {all} supernodes");
             let rhs: Vec<f64> = (0..n).map(|i| ((i * 7919 + seed as usize % 97) % 101) as f64 / 50.0 - 1.0).collect();
@@ -353,9 +359,7 @@ mod tests {
             picks in proptest::collection::vec((any::<prop::sample::Index>(), -2.0f64..2.0), 1..4),
         ) {
             let n = sparse + dense;
-            let a = matrix(n, dense, stride, seed);
-            let mut solver = CholeskySolver::analyse_as(&a, FactorKind::Supernodal, "test").unwrap();
-            solver.factorize(&a).unwrap();
+            let solver = factor(n, dense, stride, seed);
             let rhs: Vec<(usize, f64)> = picks.iter().map(|(index, value)| (index.index(n), *value)).collect();
             let mut dense_rhs = vec![0.0; n];
             for &(unknown, value) in &rhs {

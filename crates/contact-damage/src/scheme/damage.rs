@@ -247,13 +247,7 @@ impl<const D: usize> DamageOperator<D> {
 
 /// Where the nodal damage `value` lies in 𝒦^h: on 0, on 1, or between.
 fn bound_status(value: f64) -> BoundStatus {
-    if value <= 0.0 {
-        BoundStatus::AtLower
-    } else if value >= 1.0 {
-        BoundStatus::AtUpper
-    } else {
-        BoundStatus::Free
-    }
+    BoundStatus::of(value, 0.0, 1.0)
 }
 
 /// The nodes of β_{n−1} on 0 and on 1, when they are those of β_{n−2} (`None` otherwise, and

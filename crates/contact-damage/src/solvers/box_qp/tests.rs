@@ -1221,15 +1221,7 @@ fn reduced_cg_solves_the_free_block_within_its_cap() {
 pub(super) fn bound_set_of(x: &[f64], lower: &[f64], upper: &[f64]) -> Vec<BoundStatus> {
     x.iter()
         .zip(lower.iter().zip(upper))
-        .map(|(&x, (&lower, &upper))| {
-            if x == lower {
-                BoundStatus::AtLower
-            } else if x == upper {
-                BoundStatus::AtUpper
-            } else {
-                BoundStatus::Free
-            }
-        })
+        .map(|(&x, (&lower, &upper))| BoundStatus::of(x, lower, upper))
         .collect()
 }
 

@@ -16,6 +16,19 @@ pub enum BoundStatus {
     AtUpper,
 }
 
+impl BoundStatus {
+    /// Where `value` lies: on `lower` (or below), on `upper` (or above), or between.
+    pub fn of(value: f64, lower: f64, upper: f64) -> Self {
+        if value <= lower {
+            BoundStatus::AtLower
+        } else if value >= upper {
+            BoundStatus::AtUpper
+        } else {
+            BoundStatus::Free
+        }
+    }
+}
+
 /// Work vectors of one solve.
 pub(super) struct Workspace {
     pub(super) gradient: Vec<f64>,
