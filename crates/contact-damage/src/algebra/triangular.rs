@@ -314,6 +314,38 @@ mod tests {
         solver
     }
 
+    /// On a matrix of two uncoupled tridiagonal blocks, the sparse forward solve of a unit
+    /// vector of the first block visits no column of the second: it is sparse, not the full
+    /// sweep.
+    #[test]
+    fn sparse_forward_solve_stays_in_the_block_of_its_right_hand_side() {
+        let block = 50;
+        let mut triplets = Vec::new();
+        for i in 0..2 * block {
+            triplets.push(Triplet::new(i, i, 4.0));
+            if i + 1 < 2 * block && i + 1 != block {
+                triplets.push(Triplet::new(i, i + 1, -1.0));
+                triplets.push(Triplet::new(i + 1, i, -1.0));
+            }
+        }
+        let a = SparseColMat::try_new_from_triplets(2 * block, 2 * block, &triplets).unwrap();
+        let mut solver = CholeskySolver::analyse_as(&a, FactorKind::Supernodal, "test").unwrap();
+        solver.factorize(&a).unwrap();
+        let ordering = solver.ordering();
+        let mut tree = solver.supernode_tree().unwrap();
+        let mut scratch = vec![0.0; 2 * block];
+        let (rows, values) = solver
+            .forward_solve_sparse(&mut tree, &[(3, 1.0)], &mut scratch)
+            .unwrap();
+        assert!(
+            !rows.is_empty() && rows.len() <= block,
+            "{} rows",
+            rows.len()
+        );
+        assert!(rows.iter().all(|&row| ordering[row] < block));
+        assert!(values.iter().any(|&v| v != 0.0));
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(24))]
         /// The column sweeps and dense kernels of `forward`/`backward` solve as faer's own
