@@ -13,6 +13,11 @@
 //! a chunk of cells at once, for a block of up to [`STATES_PER_BLOCK`] steps (the states are
 //! kept until the block is full); chunks run in parallel and their sums are added in chunk
 //! order, step by step, so the errors do not depend on the number of threads or the blocks.
+//! Within a batch of points the squared differences are formed column by column (vectorized,
+//! `exact_batch`) and added to the sums in point order: bitwise the sums of the point-by-point
+//! evaluation.
+
+mod exact_batch;
 
 use crate::manufactured::data::ExactPrograms;
 use crate::manufactured::programs::{Quantity, BATCH};
@@ -21,6 +26,7 @@ use contact_damage::fem::space::{LagrangeSpace, Tabulation};
 use contact_damage::model::laws::Tensor;
 use contact_damage::scheme::assembly::{field_strain, physical_gradients};
 use contact_damage::scheme::State;
+use exact_batch::{accumulate_batch, DiscreteColumns, ExactColumns, TensorColumns};
 use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -494,8 +500,10 @@ impl<const D: usize> ErrorTracker<D> {
                 );
                 let fields_per_state = if constant_gradients { cells } else { per_state };
                 let mut local = vec![[0.0; 5]; states.len()];
-                // ε(u) at the points of the batch at the previous time.
-                let mut previous = [Tensor::<D>::zeros(); BATCH];
+                // ε(u) at the points of the batch at the previous time, and the discrete
+                // fields of the batch, as columns.
+                let mut previous: TensorColumns<D> = [[[0.0; BATCH]; D]; D];
+                let mut discrete_columns = DiscreteColumns::<D>::new();
                 let first_point = first_cell * nq;
                 let range = first_point..first_point + per_state;
                 let weights = &weights[range.clone()];
@@ -503,50 +511,57 @@ impl<const D: usize> ErrorTracker<D> {
                 exact
                     .errors
                     .for_batches_at_times(&points[range], &times, |offset, at, columns| {
-                        let g: [[&[f64]; D]; D] = std::array::from_fn(|i| {
-                            std::array::from_fn(|j| columns.get(Quantity::Gradient(i, j)))
-                        });
-                        let r: [[&[f64]; D]; D] = std::array::from_fn(|i| {
-                            std::array::from_fn(|j| columns.get(Quantity::RateGradient(i, j)))
-                        });
-                        let beta = columns.get(Quantity::Damage);
-                        let b: [&[f64]; D] =
-                            std::array::from_fn(|j| columns.get(Quantity::DamageGradient(j)));
+                        let exact_columns = ExactColumns {
+                            gradient: std::array::from_fn(|i| {
+                                std::array::from_fn(|j| columns.get(Quantity::Gradient(i, j)))
+                            }),
+                            rate_gradient: std::array::from_fn(|i| {
+                                std::array::from_fn(|j| columns.get(Quantity::RateGradient(i, j)))
+                            }),
+                            damage: columns.get(Quantity::Damage),
+                            damage_gradient: std::array::from_fn(|j| {
+                                columns.get(Quantity::DamageGradient(j))
+                            }),
+                        };
+                        let count = exact_columns.damage.len();
                         let fields =
                             &discrete.fields[at * fields_per_state..(at + 1) * fields_per_state];
                         let damage_h = &discrete.damage[at * per_state..(at + 1) * per_state];
                         // the cell of the batch's first point and the point's index in it
                         let (mut cell, mut in_cell) = (offset / nq, offset % nq);
-                        for (p, &damage) in beta.iter().enumerate() {
-                            let point = offset + p;
-                            let strain = sym(&SMatrix::<f64, D, D>::from_fn(|i, j| g[i][j][p]));
-                            let before = if at == 0 {
-                                previous_strain[first_point + point]
-                            } else {
-                                previous[p]
-                            };
-                            let reference = ReferencePoint {
-                                strain,
-                                quotient: (strain - before) / k,
-                                rate: Some(sym(&SMatrix::<f64, D, D>::from_fn(|i, j| r[i][j][p]))),
-                                damage,
-                                damage_gradient: SVector::<f64, D>::from_fn(|j, _| b[j][p]),
-                            };
-                            let at_point = if constant_gradients { cell } else { point };
-                            accumulate_parts(
-                                &mut local[at],
-                                weights[point],
-                                &fields[at_point],
-                                damage_h[point],
-                                &reference,
-                            );
+                        for p in 0..count {
+                            let at_point = if constant_gradients { cell } else { offset + p };
+                            discrete_columns.set(p, &fields[at_point]);
                             in_cell += 1;
                             if in_cell == nq {
                                 (cell, in_cell) = (cell + 1, 0);
                             }
-                            previous[p] = strain;
-                            if at == last {
-                                strain_out[point] = strain;
+                        }
+                        if at == 0 {
+                            let before = &previous_strain[first_point + offset..][..count];
+                            for (p, strain) in before.iter().enumerate() {
+                                for i in 0..D {
+                                    for j in 0..D {
+                                        previous[i][j][p] = strain[(i, j)];
+                                    }
+                                }
+                            }
+                        }
+                        accumulate_batch(
+                            &mut local[at],
+                            count,
+                            &exact_columns,
+                            &discrete_columns,
+                            &weights[offset..offset + count],
+                            &damage_h[offset..offset + count],
+                            k,
+                            &mut previous,
+                        );
+                        if at == last {
+                            for (p, out) in
+                                strain_out[offset..offset + count].iter_mut().enumerate()
+                            {
+                                *out = Tensor::<D>::from_fn(|i, j| previous[i][j][p]);
                             }
                         }
                     });
