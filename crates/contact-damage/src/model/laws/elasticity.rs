@@ -2,7 +2,7 @@
 //! the damaged Hooke law and the law with user moduli μ(β), λ(β).
 
 use super::tensor::{
-    check_finite, isotropic_divergence, isotropic_divergence_at, trace, FieldJets, Tensor,
+    check_finite, has_avx2, isotropic_divergence, isotropic_divergence_at, trace, FieldJets, Tensor,
 };
 use crate::error::{Error, Result};
 use nalgebra::SVector;
@@ -120,6 +120,63 @@ impl DamagedHooke {
         strain * (2.0 * self.shear_modulus)
             + Tensor::<D>::identity() * (self.lame_lambda * trace(strain))
     }
+
+    /// [`Self::divergence_of_jets`] compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn divergence_of_jets_avx2<const D: usize>(
+        &self,
+        displacement: &FieldJets<'_, D>,
+        damage: &[f64],
+        damage_gradient: &[&[f64]; D],
+        out: &mut [&mut [f64]; D],
+    ) {
+        self.divergence_of_jets(displacement, damage, damage_gradient, out)
+    }
+
+    /// The body of [`Elasticity::stress_divergence_of_jets`] for `out[0].len()` points.
+    #[inline(always)]
+    pub(super) fn divergence_of_jets<const D: usize>(
+        &self,
+        displacement: &FieldJets<'_, D>,
+        damage: &[f64],
+        damage_gradient: &[&[f64]; D],
+        out: &mut [&mut [f64]; D],
+    ) {
+        let twice_shear = 2.0 * self.shear_modulus;
+        let lambda = self.lame_lambda;
+        let count = out[0].len();
+        let displacement = displacement.first(count);
+        let (gradient, second) = (&displacement.gradient, &displacement.second);
+        let damage = &damage[..count];
+        let damage_gradient = damage_gradient.map(|column| &column[..count]);
+        let mut out = out.each_mut().map(|column| &mut column[..count]);
+        for p in 0..count {
+            // ε and tr ε at p
+            let strain = |i: usize, k: usize| (gradient[i][k][p] + gradient[k][i][p]) * 0.5;
+            let mut strain_trace = 0.0;
+            for k in 0..D {
+                strain_trace += strain(k, k);
+            }
+            let beta = damage[p];
+            let clamped = beta.clamp(0.0, 1.0);
+            let inside = (0.0..=1.0).contains(&beta);
+            for (i, out) in out.iter_mut().enumerate() {
+                let elastic = isotropic_divergence_at(twice_shear, lambda, second, p, i) * clamped;
+                // (2μ ε + λ tr ε I) ∇β, row i, column by column
+                let term = |k: usize| {
+                    let identity = if i == k { 1.0 } else { 0.0 };
+                    (strain(i, k) * twice_shear + identity * (lambda * strain_trace))
+                        * damage_gradient[k][p]
+                };
+                let mut flux = term(0);
+                for k in 1..D {
+                    flux += term(k);
+                }
+                out[p] = if inside { elastic + flux } else { elastic };
+            }
+        }
+    }
 }
 
 impl<const D: usize> Elasticity<D> for DamagedHooke {
@@ -181,7 +238,9 @@ impl<const D: usize> Elasticity<D> for DamagedHooke {
     /// product column by column, the identity's zeros multiplied in), so bitwise its values
     /// (`stress_divergences_of_jets_are_bitwise_the_pointwise_divergences`). With the same
     /// for [`crate::model::laws::LinearViscosity`], the 3D data of a manufactured run take
-    /// about a fifth less time.
+    /// about a fifth less time. The loop runs over columns cut to the batch, vectorized, and
+    /// compiled for AVX2 where the processor has it (four points per instruction; no fused
+    /// multiply–add, so the same values).
     fn stress_divergence_of_jets(
         &self,
         displacement: &FieldJets<'_, D>,
@@ -189,37 +248,14 @@ impl<const D: usize> Elasticity<D> for DamagedHooke {
         damage_gradient: &[&[f64]; D],
         out: &mut [&mut [f64]; D],
     ) {
-        let twice_shear = 2.0 * self.shear_modulus;
-        let lambda = self.lame_lambda;
-        let count = out[0].len();
-        let gradient = &displacement.gradient;
-        for p in 0..count {
-            // ε and tr ε at p
-            let strain = |i: usize, k: usize| (gradient[i][k][p] + gradient[k][i][p]) * 0.5;
-            let mut strain_trace = 0.0;
-            for k in 0..D {
-                strain_trace += strain(k, k);
-            }
-            let beta = damage[p];
-            let clamped = beta.clamp(0.0, 1.0);
-            let inside = (0.0..=1.0).contains(&beta);
-            for (i, out) in out.iter_mut().enumerate() {
-                let elastic =
-                    isotropic_divergence_at(twice_shear, lambda, &displacement.second, p, i)
-                        * clamped;
-                // (2μ ε + λ tr ε I) ∇β, row i, column by column
-                let term = |k: usize| {
-                    let identity = if i == k { 1.0 } else { 0.0 };
-                    (strain(i, k) * twice_shear + identity * (lambda * strain_trace))
-                        * damage_gradient[k][p]
-                };
-                let mut flux = term(0);
-                for k in 1..D {
-                    flux += term(k);
-                }
-                out[p] = if inside { elastic + flux } else { elastic };
+        if has_avx2() {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the processor has AVX2.
+            unsafe {
+                return self.divergence_of_jets_avx2(displacement, damage, damage_gradient, out);
             }
         }
+        self.divergence_of_jets(displacement, damage, damage_gradient, out)
     }
     fn validate(&self) -> Result<()> {
         check_finite("elasticity.shear_modulus", self.shear_modulus)?;

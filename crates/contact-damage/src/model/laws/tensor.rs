@@ -48,7 +48,21 @@ pub struct FieldJets<'a, const D: usize> {
     pub second: [[[&'a [f64]; D]; D]; D],
 }
 
-impl<const D: usize> FieldJets<'_, D> {
+impl<'a, const D: usize> FieldJets<'a, D> {
+    /// The jets of the first `count` points: every column cut to `count` values, so that a
+    /// loop over `0..count` reads them without bounds checks (and can be vectorized).
+    ///
+    /// # Panics
+    /// If a column has fewer than `count` values.
+    pub fn first(&self, count: usize) -> FieldJets<'a, D> {
+        FieldJets {
+            gradient: self.gradient.map(|row| row.map(|column| &column[..count])),
+            second: self
+                .second
+                .map(|block| block.map(|row| row.map(|column| &column[..count]))),
+        }
+    }
+
     /// ε(w) = (∇w + ∇wᵀ)/2 at point p.
     #[inline(always)]
     pub fn strain(&self, p: usize) -> Tensor<D> {
@@ -62,6 +76,20 @@ impl<const D: usize> FieldJets<'_, D> {
             let second = &self.second[j];
             Tensor::<D>::from_fn(|i, k| (second[i][k][p] + second[k][i][p]) * 0.5)
         })
+    }
+}
+
+/// Whether the processor has AVX2, for the batch kernels of the laws that have a copy compiled
+/// for it (the answer is cached by the standard library).
+#[inline]
+pub(super) fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
 

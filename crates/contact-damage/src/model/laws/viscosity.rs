@@ -2,7 +2,8 @@
 //! trait and the closed-form laws, linear and rate-saturating.
 
 use super::tensor::{
-    check_finite, deviator, isotropic_divergence, isotropic_divergence_at, trace, FieldJets, Tensor,
+    check_finite, deviator, has_avx2, isotropic_divergence, isotropic_divergence_at, trace,
+    FieldJets, Tensor,
 };
 use crate::error::{Error, Result};
 use nalgebra::SVector;
@@ -77,6 +78,37 @@ pub struct LinearViscosity {
     pub bulk: f64,
 }
 
+impl LinearViscosity {
+    /// [`Self::divergence_of_jets`] compiled for AVX2.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn divergence_of_jets_avx2<const D: usize>(
+        &self,
+        velocity: &FieldJets<'_, D>,
+        out: &mut [&mut [f64]; D],
+    ) {
+        self.divergence_of_jets(velocity, out)
+    }
+
+    /// The body of [`Viscosity::stress_divergence_of_jets`] for `out[0].len()` points.
+    #[inline(always)]
+    pub(super) fn divergence_of_jets<const D: usize>(
+        &self,
+        velocity: &FieldJets<'_, D>,
+        out: &mut [&mut [f64]; D],
+    ) {
+        let twice_shear = 2.0 * self.shear;
+        let count = out[0].len();
+        let velocity = velocity.first(count);
+        let mut out = out.each_mut().map(|column| &mut column[..count]);
+        for p in 0..count {
+            for (i, out) in out.iter_mut().enumerate() {
+                out[p] = isotropic_divergence_at(twice_shear, self.bulk, &velocity.second, p, i);
+            }
+        }
+    }
+}
+
 impl<const D: usize> Viscosity<D> for LinearViscosity {
     fn stress(&self, strain_rate: &Tensor<D>) -> Tensor<D> {
         strain_rate * (2.0 * self.shear)
@@ -101,14 +133,17 @@ impl<const D: usize> Viscosity<D> for LinearViscosity {
         isotropic_divergence(2.0 * self.shear, self.bulk, derivatives)
     }
     /// The batch straight from the columns of the jets, without the point's tensors, bitwise
-    /// [`Self::stress_divergence`] at each point.
+    /// [`Self::stress_divergence`] at each point; vectorized over columns cut to the batch,
+    /// compiled for AVX2 where the processor has it (as the damaged Hooke law's).
     fn stress_divergence_of_jets(&self, velocity: &FieldJets<'_, D>, out: &mut [&mut [f64]; D]) {
-        let twice_shear = 2.0 * self.shear;
-        for p in 0..out[0].len() {
-            for (i, out) in out.iter_mut().enumerate() {
-                out[p] = isotropic_divergence_at(twice_shear, self.bulk, &velocity.second, p, i);
+        if has_avx2() {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the processor has AVX2.
+            unsafe {
+                return self.divergence_of_jets_avx2(velocity, out);
             }
         }
+        self.divergence_of_jets(velocity, out)
     }
     fn validate(&self) -> Result<()> {
         check_finite("viscosity.shear", self.shear)?;
