@@ -26,7 +26,7 @@ use contact_damage::fem::space::{LagrangeSpace, Tabulation};
 use contact_damage::model::laws::Tensor;
 use contact_damage::scheme::assembly::{field_strain, physical_gradients};
 use contact_damage::scheme::State;
-use exact_batch::{accumulate_batch, DiscreteColumns, ExactColumns, TensorColumns};
+use exact_batch::{accumulate_batch, DiscreteColumns, ExactColumns, TensorColumns, Terms};
 use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -504,6 +504,7 @@ impl<const D: usize> ErrorTracker<D> {
                 // fields of the batch, as columns.
                 let mut previous: TensorColumns<D> = [[[0.0; BATCH]; D]; D];
                 let mut discrete_columns = DiscreteColumns::<D>::new();
+                let mut terms: Terms = [[0.0; BATCH]; 5];
                 let first_point = first_cell * nq;
                 let range = first_point..first_point + per_state;
                 let weights = &weights[range.clone()];
@@ -527,14 +528,18 @@ impl<const D: usize> ErrorTracker<D> {
                         let fields =
                             &discrete.fields[at * fields_per_state..(at + 1) * fields_per_state];
                         let damage_h = &discrete.damage[at * per_state..(at + 1) * per_state];
-                        // the cell of the batch's first point and the point's index in it
-                        let (mut cell, mut in_cell) = (offset / nq, offset % nq);
-                        for p in 0..count {
-                            let at_point = if constant_gradients { cell } else { offset + p };
-                            discrete_columns.set(p, &fields[at_point]);
-                            in_cell += 1;
-                            if in_cell == nq {
-                                (cell, in_cell) = (cell + 1, 0);
+                        if constant_gradients {
+                            // the points of the batch cell by cell, from the cell of its first
+                            let mut p = 0;
+                            while p < count {
+                                let point = offset + p;
+                                let end = count.min(p + nq - point % nq);
+                                discrete_columns.set(p..end, &fields[point / nq]);
+                                p = end;
+                            }
+                        } else {
+                            for p in 0..count {
+                                discrete_columns.set(p..p + 1, &fields[offset + p]);
                             }
                         }
                         if at == 0 {
@@ -556,6 +561,7 @@ impl<const D: usize> ErrorTracker<D> {
                             &damage_h[offset..offset + count],
                             k,
                             &mut previous,
+                            &mut terms,
                         );
                         if at == last {
                             for (p, out) in

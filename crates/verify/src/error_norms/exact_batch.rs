@@ -40,15 +40,16 @@ impl<const D: usize> DiscreteColumns<D> {
         }
     }
 
-    /// Point p of the batch takes the discrete fields `fields`.
+    /// The points `points` of the batch take the discrete fields `fields` (the points of one
+    /// cell where the fields are constant on it, or one point).
     #[inline(always)]
-    pub fn set(&mut self, p: usize, fields: &CellFields<D>) {
+    pub fn set(&mut self, points: std::ops::Range<usize>, fields: &CellFields<D>) {
         for i in 0..D {
             for j in 0..D {
-                self.strain[i][j][p] = fields.strain[(i, j)];
-                self.rate[i][j][p] = fields.rate[(i, j)];
+                self.strain[i][j][points.clone()].fill(fields.strain[(i, j)]);
+                self.rate[i][j][points.clone()].fill(fields.rate[(i, j)]);
             }
-            self.damage_gradient[i][p] = fields.damage_gradient[i];
+            self.damage_gradient[i][points.clone()].fill(fields.damage_gradient[i]);
         }
     }
 }
@@ -56,10 +57,14 @@ impl<const D: usize> DiscreteColumns<D> {
 /// The columns of a symmetric tensor field at the points of a batch.
 pub(super) type TensorColumns<const D: usize> = [[[f64; BATCH]; D]; D];
 
+/// The five weighted squared differences of each point of a batch, by component (a buffer
+/// reused from batch to batch: every value read is written first).
+pub(super) type Terms = [[f64; BATCH]; 5];
+
 /// Adds the weighted squared differences [u, δu, β, ∇β, v] of the first `count` points of a
 /// batch to `local`, in point order, and replaces `previous` (ε(u(t_{n−1})) at the points) by
 /// ε(u(t_n)). `weights` and `damage_h` (β_n^hk) hold the batch's `count` values, `k` is the
-/// time step.
+/// time step; `terms` is scratch.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn accumulate_batch<const D: usize>(
     local: &mut [f64; 5],
@@ -70,29 +75,29 @@ pub(super) fn accumulate_batch<const D: usize>(
     damage_h: &[f64],
     k: f64,
     previous: &mut TensorColumns<D>,
+    terms: &mut Terms,
 ) {
-    let mut terms = [[0.0; BATCH]; 5];
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the processor has AVX2.
         unsafe {
             batch_terms_avx2(
-                count, exact, discrete, weights, damage_h, k, previous, &mut terms,
+                count, exact, discrete, weights, damage_h, k, previous, terms,
             )
         };
-        add_in_point_order(local, &terms, count);
+        add_in_point_order(local, terms, count);
         return;
     }
     batch_terms(
-        count, exact, discrete, weights, damage_h, k, previous, &mut terms,
+        count, exact, discrete, weights, damage_h, k, previous, terms,
     );
-    add_in_point_order(local, &terms, count);
+    add_in_point_order(local, terms, count);
 }
 
 /// Each component's sum in point order, as the point-by-point evaluation adds them (the five
 /// sums are independent, so they are added side by side: five chains of additions that run
 /// at once, not one after the other).
-fn add_in_point_order(local: &mut [f64; 5], terms: &[[f64; BATCH]; 5], count: usize) {
+fn add_in_point_order(local: &mut [f64; 5], terms: &Terms, count: usize) {
     let [t0, t1, t2, t3, t4] = terms.each_ref().map(|column| &column[..count]);
     for p in 0..count {
         local[0] += t0[p];
@@ -119,7 +124,7 @@ unsafe fn batch_terms_avx2<const D: usize>(
     damage_h: &[f64],
     k: f64,
     previous: &mut TensorColumns<D>,
-    terms: &mut [[f64; BATCH]; 5],
+    terms: &mut Terms,
 ) {
     batch_terms(
         count, exact, discrete, weights, damage_h, k, previous, terms,
@@ -159,7 +164,7 @@ fn batch_terms<const D: usize>(
     damage_h: &[f64],
     k: f64,
     previous: &mut TensorColumns<D>,
-    terms: &mut [[f64; BATCH]; 5],
+    terms: &mut Terms,
 ) {
     // Every column cut to `count` values, so that the loop below needs no bounds checks.
     let gradient = exact.gradient.map(|row| row.map(|column| &column[..count]));
@@ -285,7 +290,7 @@ mod tests {
         let mut discrete = DiscreteColumns::<D>::new();
         let mut previous: TensorColumns<D> = [[[0.0; BATCH]; D]; D];
         for p in 0..count {
-            discrete.set(p, &fields[p]);
+            discrete.set(p..p + 1, &fields[p]);
             for i in 0..D {
                 for j in 0..D {
                     previous[i][j][p] = before[p][(i, j)];
@@ -302,6 +307,7 @@ mod tests {
             &batch.damage_h,
             batch.k,
             &mut previous,
+            &mut [[0.0; BATCH]; 5],
         );
         let kernel_strains = (0..count)
             .flat_map(|p| (0..dd).map(move |e| (p, e)))
