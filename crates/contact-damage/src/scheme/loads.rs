@@ -198,21 +198,37 @@ impl<const D: usize> LoadQuadrature<D> {
     /// f0 and q of `data` at every cell quadrature point at each of `times`, chunk by chunk of
     /// cells in parallel (on each thread f0, then q, at the same points and times).
     pub fn bulk_data(&self, data: &Data<D>, times: &[f64]) -> BulkData<D> {
+        self.bulk_data_into(data, times, BulkData::default())
+    }
+
+    /// [`LoadQuadrature::bulk_data`] in the buffers of `spent`, a block whose values are no
+    /// longer needed: the fields write every value, so the buffers are neither cleared nor
+    /// given back to the system and taken again (as fresh pages, faulted in and zeroed by
+    /// the kernel) from one block to the next.
+    pub fn bulk_data_into(&self, data: &Data<D>, times: &[f64], spent: BulkData<D>) -> BulkData<D> {
         let nq = self.tabulation.len();
         let chunk_points = CHUNK_CELLS * nq;
+        let mut buffers = spent.chunks;
+        buffers.resize_with(self.points.len().div_ceil(chunk_points), Default::default);
         let chunks = self
             .points
             .par_chunks(chunk_points)
-            .map(|points| {
-                let mut force = Vec::new();
-                if let Some(f) = &data.body_force {
-                    force = vec![[0.0; D]; points.len() * times.len()];
-                    f.evaluate_at_times(points, times, &mut force);
+            .zip(buffers.into_par_iter())
+            .map(|(points, (mut force, mut supply))| {
+                // (a length kept or cut initializes nothing; only a longer one fills its tail)
+                match &data.body_force {
+                    Some(f) => {
+                        force.resize(points.len() * times.len(), [0.0; D]);
+                        f.evaluate_at_times(points, times, &mut force);
+                    }
+                    None => force.clear(),
                 }
-                let mut supply = Vec::new();
-                if let Some(q) = &data.damage_supply {
-                    supply = vec![0.0; points.len() * times.len()];
-                    q.evaluate_at_times(points, times, &mut supply);
+                match &data.damage_supply {
+                    Some(q) => {
+                        supply.resize(points.len() * times.len(), 0.0);
+                        q.evaluate_at_times(points, times, &mut supply);
+                    }
+                    None => supply.clear(),
                 }
                 (force, supply)
             })
@@ -841,6 +857,53 @@ mod tests {
             }
             assert!(compared > 0);
         }
+    }
+
+    /// A block evaluated in the buffers of a spent one (longer, shorter, or lacking a field)
+    /// holds bitwise the values of a block evaluated afresh.
+    #[test]
+    fn a_block_in_spent_buffers_is_bitwise_a_fresh_block() {
+        let sides = [[Dirichlet, Neumann], [Contact, Neumann]];
+        let mesh = Arc::new(Mesh::box_mesh([0.0, 0.0], [1.0, 0.7], [9, 8], sides).unwrap());
+        let space = LagrangeSpace::new(mesh, 1).unwrap();
+        let quadrature = LoadQuadrature::new(&space);
+        let fields = Data {
+            body_force: Some(Arc::new(|x: &[f64; 2], t: f64| {
+                [x[0] * t + 1.0, (x[1] - t).sin()]
+            })),
+            damage_supply: Some(Arc::new(|x: &[f64; 2], t: f64| x[0] * x[1] + t * t)),
+            ..data::<2>()
+        };
+        let bits = |block: &BulkData<2>| -> Vec<u64> {
+            block
+                .chunks
+                .iter()
+                .flat_map(|(force, supply)| {
+                    force.iter().flatten().chain(supply).map(|v| v.to_bits())
+                })
+                .collect()
+        };
+        let times = [0.25, 0.5, 0.75];
+        let fresh = quadrature.bulk_data(&fields, &times);
+        assert!(bits(&fresh).iter().any(|&b| b != 0));
+        for spent_times in [&[0.1, 0.2, 0.3, 0.4, 0.5][..], &[0.9], &times] {
+            let spent = quadrature.bulk_data(&fields, spent_times);
+            let recycled = quadrature.bulk_data_into(&fields, &times, spent);
+            assert_eq!(bits(&recycled), bits(&fresh), "spent at {spent_times:?}");
+            assert!(recycled.holds(0.5) && !recycled.holds(0.1));
+        }
+        // a spent block of data with f0 and q, reused for data without q
+        let without_supply = Data {
+            damage_supply: None,
+            ..fields.clone()
+        };
+        let spent = quadrature.bulk_data(&fields, &times);
+        let recycled = quadrature.bulk_data_into(&without_supply, &times, spent);
+        assert!(recycled.chunks.iter().all(|(_, supply)| supply.is_empty()));
+        assert_eq!(
+            bits(&recycled),
+            bits(&quadrature.bulk_data(&without_supply, &times))
+        );
     }
 
     #[test]

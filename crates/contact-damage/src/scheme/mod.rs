@@ -424,9 +424,9 @@ impl<const D: usize> Simulation<D> {
         }
         let last = (n + per_block - 1).min(self.problem.steps).max(n);
         let times: Vec<f64> = (n..=last).map(|m| m as f64 * k).collect();
-        // The old block is freed before the new one is allocated.
-        self.bulk = BulkData::default();
-        self.bulk = self.loads.bulk_data(&self.problem.data, &times);
+        // The new block is evaluated in the buffers of the old one.
+        let spent = std::mem::take(&mut self.bulk);
+        self.bulk = self.loads.bulk_data_into(&self.problem.data, &times, spent);
     }
 
     /// The step limit of the explicit terms of (5.1) at the current state ([`crate::scheme::stability`]):
