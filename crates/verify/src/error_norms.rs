@@ -26,7 +26,7 @@ use contact_damage::fem::space::{LagrangeSpace, Tabulation};
 use contact_damage::model::laws::Tensor;
 use contact_damage::scheme::assembly::{field_strain, physical_gradients};
 use contact_damage::scheme::State;
-use exact_batch::{accumulate_batch, DiscreteColumns, ExactColumns, TensorColumns, Terms};
+use exact_batch::{accumulate_batch, Batch, DiscreteColumns, ExactColumns, TensorColumns, Terms};
 use nalgebra::{SMatrix, SVector};
 use rayon::prelude::*;
 use serde::Serialize;
@@ -552,17 +552,15 @@ impl<const D: usize> ErrorTracker<D> {
                                 }
                             }
                         }
-                        accumulate_batch(
-                            &mut local[at],
+                        let batch = Batch {
                             count,
-                            &exact_columns,
-                            &discrete_columns,
-                            &weights[offset..offset + count],
-                            &damage_h[offset..offset + count],
-                            k,
-                            &mut previous,
-                            &mut terms,
-                        );
+                            exact: exact_columns,
+                            discrete: &discrete_columns,
+                            weights: &weights[offset..offset + count],
+                            damage_h: &damage_h[offset..offset + count],
+                            time_step: k,
+                        };
+                        accumulate_batch(&mut local[at], &batch, &mut previous, &mut terms);
                         if at == last {
                             for (p, out) in
                                 strain_out[offset..offset + count].iter_mut().enumerate()

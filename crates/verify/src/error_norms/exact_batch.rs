@@ -11,6 +11,7 @@ use crate::manufactured::programs::BATCH;
 
 /// The exact fields at the points of one batch at one time t_n: columns of `count` values of
 /// the error program's outputs.
+#[derive(Clone, Copy)]
 pub(super) struct ExactColumns<'a, const D: usize> {
     /// ∂u_i/∂x_j.
     pub gradient: [[&'a [f64]; D]; D],
@@ -61,37 +62,38 @@ pub(super) type TensorColumns<const D: usize> = [[[f64; BATCH]; D]; D];
 /// reused from batch to batch: every value read is written first).
 pub(super) type Terms = [[f64; BATCH]; 5];
 
-/// Adds the weighted squared differences [u, δu, β, ∇β, v] of the first `count` points of a
-/// batch to `local`, in point order, and replaces `previous` (ε(u(t_{n−1})) at the points) by
-/// ε(u(t_n)). `weights` and `damage_h` (β_n^hk) hold the batch's `count` values, `k` is the
-/// time step; `terms` is scratch.
-#[allow(clippy::too_many_arguments)]
+/// One batch of points at one time t_n: the exact and the discrete fields there, and the
+/// batch's `count` weights and values of β_n^hk.
+pub(super) struct Batch<'a, const D: usize> {
+    pub count: usize,
+    pub exact: ExactColumns<'a, D>,
+    pub discrete: &'a DiscreteColumns<D>,
+    /// Quadrature weight × |det J|.
+    pub weights: &'a [f64],
+    /// β_n^hk.
+    pub damage_h: &'a [f64],
+    /// k, for the difference quotient.
+    pub time_step: f64,
+}
+
+/// Adds the weighted squared differences [u, δu, β, ∇β, v] of the points of `batch` to
+/// `local`, in point order, and replaces `previous` (ε(u(t_{n−1})) at the points) by
+/// ε(u(t_n)); `terms` is scratch.
 pub(super) fn accumulate_batch<const D: usize>(
     local: &mut [f64; 5],
-    count: usize,
-    exact: &ExactColumns<'_, D>,
-    discrete: &DiscreteColumns<D>,
-    weights: &[f64],
-    damage_h: &[f64],
-    k: f64,
+    batch: &Batch<'_, D>,
     previous: &mut TensorColumns<D>,
     terms: &mut Terms,
 ) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the processor has AVX2.
-        unsafe {
-            batch_terms_avx2(
-                count, exact, discrete, weights, damage_h, k, previous, terms,
-            )
-        };
-        add_in_point_order(local, terms, count);
+        unsafe { batch_terms_avx2(batch, previous, terms) };
+        add_in_point_order(local, terms, batch.count);
         return;
     }
-    batch_terms(
-        count, exact, discrete, weights, damage_h, k, previous, terms,
-    );
-    add_in_point_order(local, terms, count);
+    batch_terms(batch, previous, terms);
+    add_in_point_order(local, terms, batch.count);
 }
 
 /// Each component's sum in point order, as the point-by-point evaluation adds them (the five
@@ -115,20 +117,12 @@ fn add_in_point_order(local: &mut [f64; 5], terms: &Terms, count: usize) {
 /// The processor must support AVX2.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-#[allow(clippy::too_many_arguments)]
 unsafe fn batch_terms_avx2<const D: usize>(
-    count: usize,
-    exact: &ExactColumns<'_, D>,
-    discrete: &DiscreteColumns<D>,
-    weights: &[f64],
-    damage_h: &[f64],
-    k: f64,
+    batch: &Batch<'_, D>,
     previous: &mut TensorColumns<D>,
     terms: &mut Terms,
 ) {
-    batch_terms(
-        count, exact, discrete, weights, damage_h, k, previous, terms,
-    )
+    batch_terms(batch, previous, terms)
 }
 
 /// The squared Frobenius norm of a D × D matrix given by its entries, as `nalgebra` forms it:
@@ -155,17 +149,12 @@ fn euclidean_squared<const D: usize>(entry: impl Fn(usize) -> f64) -> f64 {
 
 /// The five weighted squared differences of each point of the batch into `terms`.
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
 fn batch_terms<const D: usize>(
-    count: usize,
-    exact: &ExactColumns<'_, D>,
-    discrete: &DiscreteColumns<D>,
-    weights: &[f64],
-    damage_h: &[f64],
-    k: f64,
+    batch: &Batch<'_, D>,
     previous: &mut TensorColumns<D>,
     terms: &mut Terms,
 ) {
+    let (count, exact, discrete, k) = (batch.count, &batch.exact, batch.discrete, batch.time_step);
     // Every column cut to `count` values, so that the loop below needs no bounds checks.
     let gradient = exact.gradient.map(|row| row.map(|column| &column[..count]));
     let rate_gradient = exact
@@ -173,7 +162,7 @@ fn batch_terms<const D: usize>(
         .map(|row| row.map(|column| &column[..count]));
     let damage = &exact.damage[..count];
     let damage_gradient = exact.damage_gradient.map(|column| &column[..count]);
-    let (weights, damage_h) = (&weights[..count], &damage_h[..count]);
+    let (weights, damage_h) = (&batch.weights[..count], &batch.damage_h[..count]);
     for p in 0..count {
         // ε(u(t_n)) and ε(u̇(t_n)): sym(m) = (m + mᵀ)·½ entry by entry.
         let strain: [[f64; D]; D] = std::array::from_fn(|i| {
@@ -212,7 +201,7 @@ mod tests {
     /// One batch of random exact columns, discrete fields, weights, β_h, previous strains, k
     /// and starting sums.
     #[derive(Debug, Clone)]
-    struct Batch {
+    struct RandomBatch {
         count: usize,
         /// 2 · D² + 1 + D exact columns.
         exact: Vec<Vec<f64>>,
@@ -225,7 +214,7 @@ mod tests {
         local: [f64; 5],
     }
 
-    fn batch(dim: usize) -> impl Strategy<Value = Batch> {
+    fn batch(dim: usize) -> impl Strategy<Value = RandomBatch> {
         (1..=BATCH).prop_flat_map(move |count| {
             let value = -10.0..10.0f64;
             let columns = |n: usize| {
@@ -247,7 +236,7 @@ mod tests {
                 proptest::array::uniform5(0.0..1.0f64),
             )
                 .prop_map(
-                    move |(exact, discrete, weights, damage_h, previous, k, local)| Batch {
+                    move |(exact, discrete, weights, damage_h, previous, k, local)| RandomBatch {
                         count,
                         exact,
                         discrete,
@@ -263,7 +252,7 @@ mod tests {
 
     /// The sums and the new previous strains by the batch kernel and, point by point, by
     /// `accumulate_parts`, as bits.
-    fn both<const D: usize>(batch: &Batch) -> [(Vec<u64>, Vec<u64>); 2] {
+    fn both<const D: usize>(batch: &RandomBatch) -> [(Vec<u64>, Vec<u64>); 2] {
         let (count, dd) = (batch.count, D * D);
         let column = |c: usize| &batch.exact[c][..];
         let exact = ExactColumns::<D> {
@@ -300,12 +289,14 @@ mod tests {
         let mut local = batch.local;
         accumulate_batch(
             &mut local,
-            count,
-            &exact,
-            &discrete,
-            &batch.weights,
-            &batch.damage_h,
-            batch.k,
+            &Batch {
+                count,
+                exact,
+                discrete: &discrete,
+                weights: &batch.weights,
+                damage_h: &batch.damage_h,
+                time_step: batch.k,
+            },
             &mut previous,
             &mut [[0.0; BATCH]; 5],
         );
